@@ -1,0 +1,49 @@
+// Sub-command registry of the `sdfkit` executable and the helpers every command shares.
+// A command is one file apps/cmd_<name>.cpp that ends with SDFKIT_REGISTER_COMMAND.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace sdfkit::app {
+
+/// Exit codes of the CLI contract (docs/CLI in DESIGN.md).
+enum ExitCode : int { kOk = 0, kUserError = 1, kPartialFailure = 2 };
+
+struct Command {
+  std::string name;
+  std::string summary;
+  /// Adds the command's options to `app` and returns the function that runs it after parsing.
+  std::function<std::function<int()>(CLI::App& app)> setup;
+};
+
+std::vector<Command>& registry();
+bool register_command(Command command);
+
+/// True when stderr is a terminal (progress bars are drawn only then).
+bool stderr_is_tty();
+
+/// A progress bar on stderr, drawn only on a terminal; thread-safe `update(done)`.
+class ProgressBar {
+ public:
+  ProgressBar(std::string label, long total);
+  ~ProgressBar();
+  void update(long done);
+  void tick();  ///< done + 1
+  void finish();
+
+ private:
+  struct Impl;
+  Impl* impl_;
+};
+
+}  // namespace sdfkit::app
+
+#define SDFKIT_CONCAT_INNER(a, b) a##b
+#define SDFKIT_CONCAT(a, b) SDFKIT_CONCAT_INNER(a, b)
+/// Register a sub-command: SDFKIT_REGISTER_COMMAND("prep", "prepare a dataset", setup_function).
+#define SDFKIT_REGISTER_COMMAND(NAME, SUMMARY, SETUP) \
+  static const bool SDFKIT_CONCAT(sdfkit_registered_, __LINE__) = ::sdfkit::app::register_command({NAME, SUMMARY, SETUP})

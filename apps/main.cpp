@@ -1,0 +1,108 @@
+// `sdfkit`: parse the sub-command, run it, turn every error into one line and the contract's exit code.
+#include "apps/command.h"
+#include "core/error.h"
+
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <mutex>
+#include <unistd.h>
+
+namespace sdfkit::app {
+
+std::vector<Command>& registry() {
+  static std::vector<Command> commands;
+  return commands;
+}
+
+bool register_command(Command command) {
+  registry().push_back(std::move(command));
+  return true;
+}
+
+bool stderr_is_tty() { return ::isatty(STDERR_FILENO) == 1; }
+
+struct ProgressBar::Impl {
+  std::string label;
+  long total;
+  std::atomic<long> done{0};
+  std::mutex mutex;
+  int last_permille = -1;
+  bool tty = stderr_is_tty();
+  bool finished = false;
+};
+
+ProgressBar::ProgressBar(std::string label, long total) : impl_(new Impl) {
+  impl_->label = std::move(label);
+  impl_->total = std::max(1L, total);
+}
+ProgressBar::~ProgressBar() {
+  finish();
+  delete impl_;
+}
+void ProgressBar::tick() { update(impl_->done.fetch_add(1) + 1); }
+void ProgressBar::update(long done) {
+  impl_->done = done;
+  if (!impl_->tty) return;
+  const int permille = static_cast<int>(1000 * std::min(done, impl_->total) / impl_->total);
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  if (permille == impl_->last_permille || impl_->finished) return;
+  impl_->last_permille = permille;
+  const int width = 30, fill = permille * width / 1000;
+  std::fprintf(stderr, "\r%s [%.*s%*s] %5.1f%% (%ld/%ld)", impl_->label.c_str(), fill,
+               "##############################", width - fill, "", permille / 10.0, std::min(done, impl_->total),
+               impl_->total);
+  std::fflush(stderr);
+}
+void ProgressBar::finish() {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  if (impl_->tty && !impl_->finished && impl_->last_permille >= 0) std::fputc('\n', stderr);
+  impl_->finished = true;
+}
+
+}  // namespace sdfkit::app
+
+int main(int argc, char** argv) {
+  using namespace sdfkit::app;
+  auto& commands = registry();
+  std::sort(commands.begin(), commands.end(), [](const Command& a, const Command& b) { return a.name < b.name; });
+
+  CLI::App app{"sdfkit " SDFKIT_VERSION
+               ": single-view 3D reconstruction with implicit signed distance fields (DISN-style), in C++.\n"
+               "Exit codes: 0 success, 1 user error (bad file or flag), 2 some items of a batch failed."};
+  app.require_subcommand(1);
+  app.fallthrough();  // global flags such as --threads may follow the sub-command too
+  app.set_version_flag("--version", std::string("sdfkit ") + SDFKIT_VERSION);
+  int threads = 0;
+  app.add_option("--threads", threads, "worker threads for parallel work (default: all cores)")
+      ->check(CLI::NonNegativeNumber);
+  std::function<int()> run;
+  for (auto& cmd : commands) {
+    CLI::App* sub = app.add_subcommand(cmd.name, cmd.summary);
+    auto runner = std::make_shared<std::function<int()>>(cmd.setup(*sub));
+    sub->callback([&run, runner] { run = *runner; });
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);  // prints help or the parse error
+    return code == 0 ? kOk : kUserError;
+  }
+  std::unique_ptr<tbb::global_control> limit;
+  if (threads > 0)
+    limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                  static_cast<size_t>(threads));
+  try {
+    return run ? run() : kUserError;
+  } catch (const sdfkit::Error& e) {
+    std::cerr << "sdfkit: error: " << e.what() << '\n';
+    return kUserError;
+  } catch (const std::exception& e) {
+    std::cerr << "sdfkit: error: " << e.what() << '\n';
+    return kUserError;
+  }
+}

@@ -1,0 +1,29 @@
+# Shared build settings and the one-library-per-folder helper.
+
+add_library(sdfkit_warnings INTERFACE)
+target_compile_options(sdfkit_warnings INTERFACE -Wall -Wextra -Wpedantic -Wno-sign-compare)
+if(SDFKIT_WERROR)
+  target_compile_options(sdfkit_warnings INTERFACE -Werror)
+endif()
+if(SDFKIT_NATIVE)
+  target_compile_options(sdfkit_warnings INTERFACE -march=native)
+endif()
+
+# sdfkit_library(NAME DEPS a b c): every *.cpp in the calling folder becomes the static library
+# sdfkit_NAME (alias sdfkit::NAME). Headers are included as "NAME/header.h" from the repository root.
+# A folder without sources yet becomes an INTERFACE target so the tree always configures.
+function(sdfkit_library NAME)
+  cmake_parse_arguments(ARG "" "" "DEPS;PRIVATE_DEPS" ${ARGN})
+  file(GLOB _srcs CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)
+  if(_srcs)
+    add_library(sdfkit_${NAME} STATIC ${_srcs})
+    target_include_directories(sdfkit_${NAME} PUBLIC ${PROJECT_SOURCE_DIR})
+    target_link_libraries(sdfkit_${NAME} PUBLIC ${ARG_DEPS} PRIVATE sdfkit_warnings ${ARG_PRIVATE_DEPS})
+    set_target_properties(sdfkit_${NAME} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  else()
+    add_library(sdfkit_${NAME} INTERFACE)
+    target_include_directories(sdfkit_${NAME} INTERFACE ${PROJECT_SOURCE_DIR})
+    target_link_libraries(sdfkit_${NAME} INTERFACE ${ARG_DEPS})
+  endif()
+  add_library(sdfkit::${NAME} ALIAS sdfkit_${NAME})
+endfunction()

@@ -1,0 +1,157 @@
+#include "core/files.h"
+
+#include "core/error.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace sdfkit {
+
+void write_file_atomic(const std::string& path, const std::function<void(std::ostream&)>& write) {
+  const fs::path target(path);
+  std::error_code ec;
+  if (target.has_parent_path()) fs::create_directories(target.parent_path(), ec);
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw IoError(path + ": cannot open for writing");
+    try {
+      write(out);
+    } catch (...) {
+      out.close();
+      fs::remove(tmp, ec);
+      throw;
+    }
+    out.flush();
+    if (!out) {
+      out.close();
+      fs::remove(tmp, ec);
+      throw IoError(path + ": write failed (disk full?)");
+    }
+  }
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw IoError(path + ": cannot rename temporary file into place");
+  }
+}
+
+void write_text_atomic(const std::string& path, const std::string& text) {
+  write_file_atomic(path, [&](std::ostream& o) { o << text; });
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(path + ": cannot open (" + std::strerror(errno) + ")");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void write_json(const std::string& path, const Json& j) { write_text_atomic(path, j.dump(2) + "\n"); }
+
+Json read_json(const std::string& path) {
+  const std::string text = read_file(path);
+  try {
+    return Json::parse(text);
+  } catch (const std::exception& e) {
+    throw IoError(path + ": invalid JSON (" + e.what() + ")");
+  }
+}
+
+void write_npy(const std::string& path, const MatrixXfR& m) {
+  std::string header = "{'descr': '<f4', 'fortran_order': False, 'shape': (" + std::to_string(m.rows()) + ", " +
+                       std::to_string(m.cols()) + "), }";
+  // Magic (6) + version (2) + header length (2) + header + '\n' must be a multiple of 64.
+  const size_t total = 10 + header.size() + 1;
+  header.append((64 - total % 64) % 64, ' ');
+  header.push_back('\n');
+  write_file_atomic(path, [&](std::ostream& o) {
+    o.write("\x93NUMPY\x01\x00", 8);
+    const auto len = static_cast<uint16_t>(header.size());
+    const char lenb[2] = {static_cast<char>(len & 0xff), static_cast<char>(len >> 8)};
+    o.write(lenb, 2);
+    o.write(header.data(), static_cast<std::streamsize>(header.size()));
+    o.write(reinterpret_cast<const char*>(m.data()), static_cast<std::streamsize>(m.size() * sizeof(float)));
+  });
+}
+
+MatrixXfR read_npy(const std::string& path) {
+  const std::string bytes = read_file(path);
+  if (bytes.size() < 10 || bytes.compare(0, 6, "\x93NUMPY") != 0) throw IoError(path + ": not a .npy file");
+  const int major = static_cast<unsigned char>(bytes[6]);
+  size_t header_len = 0, offset = 0;
+  if (major == 1) {
+    header_len = static_cast<unsigned char>(bytes[8]) | (static_cast<unsigned char>(bytes[9]) << 8);
+    offset = 10;
+  } else if (major == 2 || major == 3) {
+    if (bytes.size() < 12) throw IoError(path + ": truncated .npy header");
+    header_len = 0;
+    for (int i = 0; i < 4; ++i) header_len |= static_cast<size_t>(static_cast<unsigned char>(bytes[8 + i])) << (8 * i);
+    offset = 12;
+  } else {
+    throw IoError(path + ": unsupported .npy version " + std::to_string(major));
+  }
+  if (bytes.size() < offset + header_len) throw IoError(path + ": truncated .npy header");
+  const std::string header = bytes.substr(offset, header_len);
+  const size_t data_start = offset + header_len;
+  const bool f4 = header.find("'<f4'") != std::string::npos;
+  const bool f8 = header.find("'<f8'") != std::string::npos;
+  if (!f4 && !f8) throw IoError(path + ": only little-endian float32/float64 .npy arrays are supported");
+  if (header.find("'fortran_order': True") != std::string::npos) throw IoError(path + ": Fortran-order .npy not supported");
+  const size_t p0 = header.find('(');
+  const size_t p1 = header.find(')', p0);
+  if (p0 == std::string::npos || p1 == std::string::npos) throw IoError(path + ": .npy header has no shape");
+  std::vector<long long> shape;
+  std::stringstream ss(header.substr(p0 + 1, p1 - p0 - 1));
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    item.erase(std::remove(item.begin(), item.end(), ' '), item.end());
+    if (!item.empty()) shape.push_back(std::stoll(item));
+  }
+  if (shape.empty() || shape.size() > 2) throw IoError(path + ": .npy array must be 1-D or 2-D");
+  const long long rows = shape[0], cols = shape.size() == 2 ? shape[1] : 1;
+  const size_t elem = f4 ? 4 : 8;
+  if (rows < 0 || cols < 0 || bytes.size() - data_start < static_cast<size_t>(rows * cols) * elem)
+    throw IoError(path + ": truncated .npy data");
+  MatrixXfR m(rows, cols);
+  const char* src = bytes.data() + data_start;
+  if (f4) {
+    std::memcpy(m.data(), src, static_cast<size_t>(rows * cols) * 4);
+  } else {
+    for (long long i = 0; i < rows * cols; ++i) {
+      double v;
+      std::memcpy(&v, src + 8 * i, 8);
+      m.data()[i] = static_cast<float>(v);
+    }
+  }
+  return m;
+}
+
+std::string fnv1a_hex(const std::string& bytes) {
+  uint64_t h = 1469598103934665603ULL;
+  for (unsigned char c : bytes) {
+    h ^= c;
+    h *= 1099511628211ULL;
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+std::string extension_of(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  if (!ext.empty() && ext[0] == '.') ext.erase(0, 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext;
+}
+
+}  // namespace sdfkit

@@ -1,0 +1,43 @@
+// Files written the safe way (temporary file + rename), .npy arrays, JSON files, content hashes.
+#pragma once
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <cstdint>
+#include <functional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace sdfkit {
+
+using Json = nlohmann::json;
+
+/// Write a file atomically: `write` fills a stream on `path + ".tmp.<pid>"`, which is renamed onto `path`
+/// only when it succeeded, so a crash or error never leaves a half-written `path`. Parent folders are
+/// created. Throws IoError naming the path.
+void write_file_atomic(const std::string& path, const std::function<void(std::ostream&)>& write);
+void write_text_atomic(const std::string& path, const std::string& text);
+/// Whole file as bytes; IoError naming the path when it cannot be read.
+std::string read_file(const std::string& path);
+
+/// JSON written with 2-space indent (stable key order: nlohmann sorts object keys).
+void write_json(const std::string& path, const Json& j);
+Json read_json(const std::string& path);
+
+/// float32 N x C matrix <-> NumPy .npy (version 1.0, little endian, C order).
+using MatrixXfR = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+void write_npy(const std::string& path, const MatrixXfR& m);
+/// Reads '<f4' or '<f8' 1-D/2-D C-order arrays (converted to float32). IoError on anything else.
+MatrixXfR read_npy(const std::string& path);
+
+/// 64-bit FNV-1a of bytes, printed as 16 hex digits (identifies a source file in norm.json).
+std::string fnv1a_hex(const std::string& bytes);
+
+/// Lower-case extension without the dot ("mesh.PLY" -> "ply"); "" when none.
+std::string extension_of(const std::string& path);
+
+/// Progress/cancel hook for long work: called with a fraction in [0, 1]; return false to cancel.
+using ProgressFn = std::function<bool(double)>;
+
+}  // namespace sdfkit
