@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cstdio>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <unistd.h>
@@ -81,8 +82,27 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads for parallel work (default: all cores)")
       ->check(CLI::NonNegativeNumber);
   std::function<int()> run;
+  // "bench prep" registers `prep` under the group `bench`; groups are created on first use.
+  const std::map<std::string, std::string> group_summaries = {
+      {"bench", "speed-against-error studies (results go to docs/BENCHMARKS.md)"},
+      {"train", "train the pose or the SDF network"}};
   for (auto& cmd : commands) {
-    CLI::App* sub = app.add_subcommand(cmd.name, cmd.summary);
+    CLI::App* parent = &app;
+    std::string leaf = cmd.name;
+    if (const auto space = cmd.name.find(' '); space != std::string::npos) {
+      const std::string group = cmd.name.substr(0, space);
+      leaf = cmd.name.substr(space + 1);
+      parent = nullptr;
+      for (CLI::App* existing : app.get_subcommands([](CLI::App*) { return true; }))
+        if (existing->get_name() == group) parent = existing;
+      if (parent == nullptr) {
+        const auto it = group_summaries.find(group);
+        parent = app.add_subcommand(group, it == group_summaries.end() ? group : it->second);
+        parent->require_subcommand(1);
+        parent->fallthrough();
+      }
+    }
+    CLI::App* sub = parent->add_subcommand(leaf, cmd.summary);
     auto runner = std::make_shared<std::function<int()>>(cmd.setup(*sub));
     sub->callback([&run, runner] { run = *runner; });
   }
