@@ -1,0 +1,34 @@
+// Exact unsigned point-to-mesh distances (closest point over all triangles) through a triangle BVH.
+#pragma once
+
+#include "core/types.h"
+#include "sdf/bvh.h"
+
+namespace sdfkit {
+
+/// Result of a closest-point query.
+struct ClosestPoint {
+  double distance = 0;  ///< Euclidean distance to the closest triangle
+  Vec3 point = Vec3::Zero();
+  int32_t face = -1;    ///< index of the closest face in the mesh
+};
+
+class MeshDistance {
+ public:
+  explicit MeshDistance(const Mesh& mesh);
+
+  /// Exact closest point on the mesh (thread-safe). `upper_bound`: search only closer than this (returns
+  /// distance = upper_bound and face = -1 if nothing is closer).
+  [[nodiscard]] ClosestPoint closest(const Vec3& p, double upper_bound = 1e300) const;
+  [[nodiscard]] double operator()(const Vec3& p) const { return closest(p).distance; }
+  /// Unsigned distances of every row of P, in parallel (TBB).
+  [[nodiscard]] Eigen::VectorXd query(const Points& P) const;
+
+  /// O(#F) reference for tests.
+  static double brute_force(const Mesh& mesh, const Vec3& p);
+
+ private:
+  TriangleBvh bvh_;
+};
+
+}  // namespace sdfkit

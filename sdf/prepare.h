@@ -1,0 +1,61 @@
+// The per-shape preparation pipeline of `sdfkit prep` as one library call: read and validate a mesh, normalise
+// it to the unit-sphere object frame, build the sparse SDF, draw the DISN samples and write the ground-truth
+// surface, every file atomically, norm.json last (its presence marks a complete shape).
+#pragma once
+
+#include "core/files.h"
+#include "core/mesh_io.h"
+#include "sdf/samples.h"
+#include "sdf/sparse_sdf.h"
+
+#include <string>
+
+namespace sdfkit {
+
+/// How gt.obj is made.
+enum class GtSource {
+  Auto,        ///< the normalised input when it is closed, oriented and one part; otherwise the iso-surface
+  Input,       ///< always the normalised input mesh
+  IsoSurface,  ///< always the iso-surface of the SDF at `gt_iso`
+};
+
+struct PrepareSettings {
+  SparseSdfSettings grid;
+  SampleSettings samples;
+  GtSource gt = GtSource::Auto;
+  double gt_iso = 0.003;  ///< DISN's level for the iso-surface ground truth
+  bool overwrite = false; ///< redo a shape even when its norm.json exists
+};
+
+struct PrepareStatus {
+  bool skipped = false;     ///< already complete (norm.json present) and not overwritten
+  std::string shape_dir;
+  MeshReport mesh;          ///< validation counts
+  long flipped_faces = 0;
+  bool closed_input = false;
+  std::string gt_source;    ///< "input" or "iso"
+  long active_voxels = 0;
+  size_t grid_bytes = 0;
+  SampleReport samples;
+  double seconds = 0;       ///< wall time of this shape
+};
+
+/// The files of a prepared shape folder.
+struct ShapeFiles {
+  std::string norm, sdf, samples, gt;
+  explicit ShapeFiles(const std::string& shape_dir);
+};
+
+/// True when `shape_dir` holds a complete prepared shape (norm.json is written last).
+bool shape_is_complete(const std::string& shape_dir);
+
+/// Prepare one mesh file into `shape_dir` (created). Throws IoError/InvalidInput naming `mesh_path` when the
+/// input is unusable; on error nothing is left that looks complete. `progress` may cancel.
+PrepareStatus prepare_shape(const std::string& mesh_path, const std::string& shape_dir,
+                            const PrepareSettings& settings = {}, const ProgressFn& progress = {});
+
+/// Same, from a mesh already in memory (`source` names it in messages and norm.json).
+PrepareStatus prepare_mesh(const Mesh& mesh, const std::string& source, const std::string& shape_dir,
+                           const PrepareSettings& settings = {}, const ProgressFn& progress = {});
+
+}  // namespace sdfkit

@@ -1,0 +1,43 @@
+// DISN training samples: continuous points stratified on d = sdf - offset over four bins in [-0.1, 0.1],
+// each stored with its exact signed distance (exact closest-triangle distance, winding-number sign).
+#pragma once
+
+#include "core/files.h"
+#include "core/types.h"
+#include "sdf/sparse_sdf.h"
+
+#include <array>
+#include <cstdint>
+
+namespace sdfkit {
+
+struct SampleSettings {
+  long count = 32768;              ///< total samples per shape (DISN: 32768)
+  double offset = 0.003;           ///< stratify on d = sdf - offset (DISN's iso level); 0 = on sdf itself
+  /// Bin edges on d: [e0,e1) [e1,e2) [e2,e3) [e3,e4] (DISN's bins).
+  std::array<double, 5> edges{-0.1, -0.03, 0.0, 0.03, 0.1};
+  double uniform_share = 0.0;      ///< fraction drawn uniformly in the box [-box, box]^3 (far field), not binned
+  double box = 1.2;                ///< half-size of the uniform box (DISN's 1.2 x the unit sphere's box)
+  uint64_t seed = 0;
+  double winding_beta = 2.0;
+  long max_candidates_per_bin = 0;  ///< give up on a bin after this many tries (0 = 64 x its quota)
+};
+
+struct SampleReport {
+  std::array<long, 4> bin_counts{};   ///< samples stored per bin
+  std::array<long, 4> bin_quota{};    ///< what was asked per bin
+  long uniform_count = 0;
+  long candidates = 0;                ///< exact distance evaluations spent
+  /// Bins that the shape cannot fill (e.g. no inside deeper than 0.03 for a thin plate): their shortfall
+  /// is redistributed to the other bins, nearest bin first, and reported here.
+  long redistributed = 0;
+};
+
+/// N x 4 float32 rows (x, y, z, sdf) in the frame of `mesh` (the object frame in a prepared dataset): bins
+/// first (bin 0..3, in generation order), then the uniform share. `sdf` is the grid built from the same mesh
+/// (used to propose candidates and for the sign far from the surface). Deterministic for a seed whatever the
+/// thread count. Throws InvalidInput for bad settings.
+MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSettings& settings,
+                       SampleReport* report = nullptr);
+
+}  // namespace sdfkit

@@ -1,0 +1,376 @@
+#include "sdf/sparse_sdf.h"
+
+#include "core/error.h"
+#include "sdf/orientation.h"
+#include "sdf/sparse_sdf_vdb.h"
+#include "sdf/winding.h"
+
+#include <openvdb/io/File.h>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/Prune.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <unistd.h>
+
+namespace sdfkit {
+
+void ensure_openvdb_initialized() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+namespace {
+
+using openvdb::Coord;
+using openvdb::FloatGrid;
+using openvdb::FloatTree;
+using LeafT = FloatTree::LeafNodeType;
+
+/// Union-find over a small index range (path halving, union by smaller root index: deterministic).
+struct UnionFind {
+  std::vector<int32_t> parent;
+  explicit UnionFind(size_t n) : parent(n) {
+    for (size_t i = 0; i < n; ++i) parent[i] = static_cast<int32_t>(i);
+  }
+  int32_t find(int32_t x) {
+    while (parent[x] != x) {
+      parent[x] = parent[parent[x]];
+      x = parent[x];
+    }
+    return x;
+  }
+  void unite(int32_t a, int32_t b) {
+    a = find(a);
+    b = find(b);
+    if (a == b) return;
+    if (a < b) std::swap(a, b);
+    parent[a] = b;
+  }
+};
+
+/// Components of items connected by "no surface between them" edges; for each, decide inside/outside by
+/// probing the winding number at a few members, falling back to every member when the probes disagree or
+/// are ambiguous (open meshes, where the w = 0.5 set is not tied to the surface).
+/// `position(i)` gives the item's world position, `inside_out` receives the decision per item.
+template <typename PosFn>
+long classify_components(UnionFind& uf, int32_t n, const std::vector<int32_t>& preferred_probe, const PosFn& position,
+                         const WindingNumber& wn, double threshold, std::vector<char>& inside) {
+  long evaluations = 0;
+  std::map<int32_t, std::vector<int32_t>> groups;  // root -> members in index order (deterministic)
+  for (int32_t i = 0; i < n; ++i) groups[uf.find(i)].push_back(i);
+  for (auto& [root, members] : groups) {
+    auto decide_all = [&] {
+      for (int32_t m : members) {
+        inside[m] = wn(position(m)) > threshold;
+        ++evaluations;
+      }
+    };
+    if (members.size() <= 4) {
+      decide_all();
+      continue;
+    }
+    std::array<int32_t, 3> probes{preferred_probe[root], members.front(), members.back()};
+    bool first = true, agreed = true, verdict = false;
+    for (int32_t p : probes) {
+      const double w = wn(position(p));
+      ++evaluations;
+      const bool in = w > threshold;
+      if (std::abs(w - threshold) < 0.25) agreed = false;
+      if (first) verdict = in;
+      else if (in != verdict) agreed = false;
+      first = false;
+    }
+    if (agreed) {
+      for (int32_t m : members) inside[m] = verdict;
+    } else {
+      decide_all();
+    }
+  }
+  return evaluations;
+}
+
+struct Progress {
+  const ProgressFn& fn;
+  void operator()(double f) const {
+    if (fn && !fn(f)) throw Error("cancelled");
+  }
+};
+
+/// Replace the random UUID OpenVDB writes into a file header with one derived from the content.
+void make_uuid_deterministic(std::string& bytes) {
+  // Header: int64 magic, uint32 file version, uint32 major, uint32 minor, char has_offsets, 36-char UUID.
+  constexpr size_t kOffset = 8 + 4 + 4 + 4 + 1;
+  if (bytes.size() < kOffset + 36) return;
+  for (size_t dash : {8, 13, 18, 23})
+    if (bytes[kOffset + dash] != '-') return;  // unknown layout: leave it alone
+  std::string rest = bytes.substr(kOffset + 36);
+  const std::string h = fnv1a_hex(rest) + fnv1a_hex(rest + "sdfkit");
+  std::string uuid = h.substr(0, 8) + "-" + h.substr(8, 4) + "-" + h.substr(12, 4) + "-" + h.substr(16, 4) + "-" +
+                     h.substr(20, 12);
+  bytes.replace(kOffset, 36, uuid);
+}
+
+}  // namespace
+
+SparseSdf sparse_sdf_from_grid(FloatGrid::Ptr grid) {
+  require(grid != nullptr, "sparse SDF: null grid");
+  require(grid->hasUniformVoxels(), "sparse SDF: the grid's voxels are not uniform");
+  auto impl = std::make_shared<SparseSdf::Impl>();
+  impl->grid = std::move(grid);
+  return SparseSdf(std::shared_ptr<const SparseSdf::Impl>(impl));
+}
+
+SparseSdf::SparseSdf() {
+  ensure_openvdb_initialized();
+  auto impl = std::make_shared<Impl>();
+  impl->grid = FloatGrid::create(1.0f);
+  impl->grid->setName("sdf");
+  impl->grid->setGridClass(openvdb::GRID_LEVEL_SET);
+  impl_ = impl;
+}
+
+SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, SparseSdfStats* stats,
+                               const ProgressFn& progress_fn) {
+  ensure_openvdb_initialized();
+  require(!input.empty(), "sparse SDF: empty mesh");
+  require(input.V.allFinite(), "sparse SDF: non-finite vertex coordinates");
+  require(s.voxel_size > 0 && std::isfinite(s.voxel_size), "sparse SDF: voxel size must be positive");
+  require(s.band >= s.voxel_size && std::isfinite(s.band), "sparse SDF: band must be at least one voxel wide");
+  const Progress progress{progress_fn};
+  SparseSdfStats st;
+  Mesh mesh = input;
+  if (s.orient_faces && s.sign == SignMethod::WindingNumber) {
+    OrientationReport orep;
+    mesh = orient_consistently(input, &orep);
+    st.flipped_faces = orep.flipped_faces;
+  }
+  progress(0.05);
+
+  const double h = s.voxel_size;
+  const auto xform = openvdb::math::Transform::createLinearTransform(h);
+  std::vector<openvdb::Vec3s> points(static_cast<size_t>(mesh.V.rows()));
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    points[static_cast<size_t>(i)] = openvdb::Vec3s(static_cast<float>(mesh.V(i, 0) / h),
+                                                    static_cast<float>(mesh.V(i, 1) / h),
+                                                    static_cast<float>(mesh.V(i, 2) / h));
+  std::vector<openvdb::Vec3I> tris(static_cast<size_t>(mesh.F.rows()));
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    tris[static_cast<size_t>(f)] = openvdb::Vec3I(static_cast<uint32_t>(mesh.F(f, 0)),
+                                                  static_cast<uint32_t>(mesh.F(f, 1)),
+                                                  static_cast<uint32_t>(mesh.F(f, 2)));
+  const openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> adapter(points, tris);
+  const float band_voxels = static_cast<float>(std::ceil(s.band / h));
+  openvdb::util::NullInterrupter interrupter;
+  FloatGrid::Ptr grid = openvdb::tools::meshToVolume<FloatGrid>(interrupter, adapter, *xform, band_voxels, 0.0f,
+                                                                openvdb::tools::UNSIGNED_DISTANCE_FIELD);
+  grid->setName("sdf");
+  FloatTree& tree = grid->tree();
+  const auto background = static_cast<float>(band_voxels * h);
+  progress(0.5);
+
+  if (s.sign == SignMethod::WindingNumber) {
+    const WindingNumber wn(mesh, s.winding_beta);
+    const double threshold = 0.5;
+    std::vector<LeafT*> leaves;
+    leaves.reserve(tree.leafCount());
+    tree.getNodes(leaves);
+    // Two voxels a voxel apart whose distances sum to more than h cannot have a surface point between them.
+    const float safe = static_cast<float>(h * 1.02);
+    std::atomic<long> evaluations{0};
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 4), [&](const auto& range) {
+      UnionFind uf(LeafT::SIZE);
+      std::vector<int32_t> best(LeafT::SIZE);
+      std::vector<char> inside(LeafT::SIZE);
+      for (size_t li = range.begin(); li != range.end(); ++li) {
+        LeafT& leaf = *leaves[li];
+        for (size_t i = 0; i < LeafT::SIZE; ++i) uf.parent[i] = static_cast<int32_t>(i);
+        const float* v = leaf.buffer().data();
+        constexpr int32_t D = LeafT::DIM;
+        for (int32_t x = 0; x < D; ++x)
+          for (int32_t y = 0; y < D; ++y)
+            for (int32_t z = 0; z < D; ++z) {
+              const int32_t i = (x * D + y) * D + z;
+              if (z + 1 < D && v[i] + v[i + 1] > safe) uf.unite(i, i + 1);
+              if (y + 1 < D && v[i] + v[i + D] > safe) uf.unite(i, i + D);
+              if (x + 1 < D && v[i] + v[i + D * D] > safe) uf.unite(i, i + D * D);
+            }
+        // Preferred probe per component: the member farthest from the surface (most robust).
+        for (int32_t i = 0; i < static_cast<int32_t>(LeafT::SIZE); ++i) best[i] = -1;
+        for (int32_t i = 0; i < static_cast<int32_t>(LeafT::SIZE); ++i) {
+          const int32_t r = uf.find(i);
+          if (best[r] < 0 || v[i] > v[best[r]]) best[r] = i;
+        }
+        const Coord origin = leaf.origin();
+        auto position = [&](int32_t i) {
+          const Coord c = origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
+          return Vec3(c.x() * h, c.y() * h, c.z() * h);
+        };
+        evaluations += classify_components(uf, static_cast<int32_t>(LeafT::SIZE), best, position, wn, threshold,
+                                           inside);
+        float* out = leaf.buffer().data();
+        for (size_t i = 0; i < LeafT::SIZE; ++i)
+          if (inside[i]) out[i] = -out[i];
+      }
+    });
+    st.band_voxels = static_cast<long>(tree.activeVoxelCount());
+    progress(0.8);
+
+    // Beyond the band: 8^3 blocks of the leaves' bounding box that hold no leaf. Blocks connected face to
+    // face share a sign (the band separates inside from outside for closed surfaces); probe per component.
+    openvdb::CoordBBox lb;
+    for (const LeafT* leaf : leaves) lb.expand(leaf->origin());
+    if (!leaves.empty()) {
+      constexpr int32_t D = LeafT::DIM;
+      const Coord lo = lb.min(), hi = lb.max();
+      const int32_t nx = (hi.x() - lo.x()) / D + 1, ny = (hi.y() - lo.y()) / D + 1, nz = (hi.z() - lo.z()) / D + 1;
+      const auto nb = static_cast<size_t>(nx) * ny * nz;
+      std::vector<char> has_leaf(nb, 0);
+      auto block_index = [&](const Coord& o) {
+        return (static_cast<size_t>((o.x() - lo.x()) / D) * ny + (o.y() - lo.y()) / D) * nz + (o.z() - lo.z()) / D;
+      };
+      for (const LeafT* leaf : leaves) has_leaf[block_index(leaf->origin())] = 1;
+      std::vector<int32_t> empty_blocks;  // block index per item
+      std::vector<int32_t> item_of(nb, -1);
+      for (size_t b = 0; b < nb; ++b)
+        if (!has_leaf[b]) {
+          item_of[b] = static_cast<int32_t>(empty_blocks.size());
+          empty_blocks.push_back(static_cast<int32_t>(b));
+        }
+      const auto n = static_cast<int32_t>(empty_blocks.size());
+      UnionFind uf(static_cast<size_t>(n));
+      for (int32_t bx = 0; bx < nx; ++bx)
+        for (int32_t by = 0; by < ny; ++by)
+          for (int32_t bz = 0; bz < nz; ++bz) {
+            const size_t b = (static_cast<size_t>(bx) * ny + by) * nz + bz;
+            if (has_leaf[b]) continue;
+            if (bz + 1 < nz && !has_leaf[b + 1]) uf.unite(item_of[b], item_of[b + 1]);
+            if (by + 1 < ny && !has_leaf[b + nz]) uf.unite(item_of[b], item_of[b + nz]);
+            if (bx + 1 < nx && !has_leaf[b + static_cast<size_t>(ny) * nz])
+              uf.unite(item_of[b], item_of[b + static_cast<size_t>(ny) * nz]);
+          }
+      std::vector<int32_t> first(static_cast<size_t>(n));
+      for (int32_t i = 0; i < n; ++i) first[i] = uf.find(i);
+      auto block_center = [&](int32_t i) {
+        const int32_t b = empty_blocks[i];
+        const int32_t bz = b % nz, by = (b / nz) % ny, bx = b / (nz * ny);
+        return Vec3((lo.x() + bx * D + 0.5 * (D - 1)) * h, (lo.y() + by * D + 0.5 * (D - 1)) * h,
+                    (lo.z() + bz * D + 0.5 * (D - 1)) * h);
+      };
+      std::vector<char> inside(static_cast<size_t>(n), 0);
+      evaluations += classify_components(uf, n, first, block_center, wn, threshold, inside);
+      for (int32_t i = 0; i < n; ++i) {
+        if (!inside[i]) continue;
+        const int32_t b = empty_blocks[i];
+        const int32_t bz = b % nz, by = (b / nz) % ny, bx = b / (nz * ny);
+        tree.addTile(1, Coord(lo.x() + bx * D, lo.y() + by * D, lo.z() + bz * D), -background, false);
+        ++st.inside_tiles;
+      }
+    }
+    st.winding_evaluations = evaluations;
+    openvdb::tools::pruneLevelSet(tree);
+  }
+  grid->setGridClass(openvdb::GRID_LEVEL_SET);
+  progress(1.0);
+  if (stats) *stats = st;
+  return sparse_sdf_from_grid(grid);
+}
+
+double SparseSdf::value(const Vec3& p) const {
+  const FloatGrid& g = *impl_->grid;
+  const openvdb::Vec3d ip = g.transform().worldToIndex(openvdb::Vec3d(p.x(), p.y(), p.z()));
+  auto acc = g.getConstAccessor();
+  return openvdb::tools::BoxSampler::sample(acc, ip);
+}
+
+Eigen::VectorXd SparseSdf::values(const Points& P) const {
+  Eigen::VectorXd out(P.rows());
+  const FloatGrid& g = *impl_->grid;
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, P.rows(), 1024), [&](const auto& r) {
+    auto acc = g.getConstAccessor();
+    for (Eigen::Index i = r.begin(); i != r.end(); ++i) {
+      const openvdb::Vec3d ip = g.transform().worldToIndex(openvdb::Vec3d(P(i, 0), P(i, 1), P(i, 2)));
+      out[i] = openvdb::tools::BoxSampler::sample(acc, ip);
+    }
+  });
+  return out;
+}
+
+double SparseSdf::voxel(int i, int j, int k) const { return impl_->grid->tree().getValue(Coord(i, j, k)); }
+double SparseSdf::voxel_size() const { return impl_->grid->voxelSize()[0]; }
+double SparseSdf::background() const { return impl_->grid->background(); }
+long SparseSdf::active_voxel_count() const { return static_cast<long>(impl_->grid->activeVoxelCount()); }
+size_t SparseSdf::memory_bytes() const { return static_cast<size_t>(impl_->grid->memUsage()); }
+
+Box3 SparseSdf::active_index_bounds() const {
+  Box3 b;
+  if (impl_->grid->activeVoxelCount() == 0) return b;
+  const openvdb::CoordBBox bb = impl_->grid->evalActiveVoxelBoundingBox();
+  b.lo = Vec3(bb.min().x(), bb.min().y(), bb.min().z());
+  b.hi = Vec3(bb.max().x(), bb.max().y(), bb.max().z());
+  return b;
+}
+
+void SparseSdf::write(const std::string& path) const {
+  ensure_openvdb_initialized();
+  // OpenVDB writes through its own file object; write a private temporary, then move the (UUID-fixed) bytes
+  // into place atomically.
+  const std::string tmp = path + ".vdbtmp." + std::to_string(::getpid());
+  try {
+    std::filesystem::path parent = std::filesystem::path(path).parent_path();
+    if (!parent.empty()) std::filesystem::create_directories(parent);
+    openvdb::io::File file(tmp);
+    openvdb::GridPtrVec grids{impl_->grid->deepCopyGrid()};
+    grids[0]->setName("sdf");
+    file.write(grids);
+    file.close();
+  } catch (const std::exception& e) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw IoError(path + ": cannot write VDB: " + e.what());
+  }
+  std::string bytes = read_file(tmp);
+  std::error_code ec;
+  std::filesystem::remove(tmp, ec);
+  make_uuid_deterministic(bytes);
+  write_file_atomic(path, [&](std::ostream& o) { o.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
+}
+
+SparseSdf SparseSdf::read(const std::string& path) {
+  ensure_openvdb_initialized();
+  if (!std::filesystem::is_regular_file(path)) throw IoError(path + ": no such file");
+  try {
+    openvdb::io::File file(path);
+    file.open();
+    openvdb::GridBase::Ptr base;
+    for (auto it = file.beginName(); it != file.endName(); ++it)
+      if (it.gridName() == "sdf") base = file.readGrid("sdf");
+    if (!base) {
+      openvdb::GridPtrVecPtr all = file.getGrids();
+      for (auto& g : *all)
+        if (g->isType<FloatGrid>()) {
+          if (base) throw IoError(path + ": no grid named \"sdf\" and more than one FloatGrid");
+          base = g;
+        }
+    }
+    file.close();
+    auto grid = openvdb::gridPtrCast<FloatGrid>(base);
+    if (!grid) throw IoError(path + ": no FloatGrid named \"sdf\"");
+    return sparse_sdf_from_grid(grid);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw IoError(path + ": cannot read VDB: " + e.what());
+  }
+}
+
+}  // namespace sdfkit
