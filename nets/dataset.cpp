@@ -1,0 +1,280 @@
+#include "nets/dataset.h"
+
+#include "core/error.h"
+#include "core/random.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <numeric>
+#include <sstream>
+#include <unordered_map>
+
+namespace fs = std::filesystem;
+
+namespace sdfkit {
+
+namespace {
+
+std::string two_digits(int v) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "%02d", v);
+  return buf;
+}
+
+int count_views(const fs::path& shape_dir) {
+  int v = 0;
+  while (fs::exists(shape_dir / "views" / (two_digits(v) + ".json")) &&
+         fs::exists(shape_dir / "views" / (two_digits(v) + ".png")))
+    ++v;
+  return v;
+}
+
+/// Fisher-Yates permutation of [0, n) from our own generator (std::shuffle is implementation-defined).
+std::vector<int> permutation(int n, Rng& rng) {
+  std::vector<int> p(n);
+  std::iota(p.begin(), p.end(), 0);
+  for (int i = n - 1; i > 0; --i) std::swap(p[i], p[static_cast<int>(rng.below(static_cast<uint64_t>(i) + 1))]);
+  return p;
+}
+
+}  // namespace
+
+std::string resolve_split_file(const std::string& root, const std::string& split) {
+  if (fs::is_regular_file(split)) return split;
+  const bool is_name = split.find('/') == std::string::npos && split.find('.') == std::string::npos;
+  if (is_name) {
+    const fs::path a = fs::path(root) / (split + ".lst");
+    const fs::path b = fs::path(root).parent_path() / (split + ".lst");
+    if (fs::is_regular_file(a)) return a.string();
+    if (fs::is_regular_file(b)) return b.string();
+    throw IoError("split '" + split + "': neither " + a.string() + " nor " + b.string() + " exists");
+  }
+  throw IoError(split + ": split list file not found");
+}
+
+std::vector<std::string> read_split_file(const std::string& path) {
+  std::istringstream in(read_file(path));
+  std::vector<std::string> ids;
+  std::string line;
+  while (std::getline(in, line)) {
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.pop_back();
+    size_t s = 0;
+    while (s < line.size() && (line[s] == ' ' || line[s] == '\t')) ++s;
+    line = line.substr(s);
+    if (line.empty() || line[0] == '#') continue;
+    if (line.find('/') == std::string::npos)
+      throw IoError(path + ": line '" + line + "' is not of the form <category>/<shape>");
+    ids.push_back(line);
+  }
+  return ids;
+}
+
+Eigen::VectorXf network_image(const Image& image, int size) {
+  const int H = image.height, W = image.width, C = image.channels;
+  require(H > 0 && W > 0 && C > 0, "network_image: empty image");
+  require(size > 0, "network_image: size must be positive");
+  // 1. Composite to RGB on the background (camera/image.h), clamp to [0, 1], replace non-finite values.
+  Image rgb_image = to_rgb(image, kNetBackground);
+  std::vector<float>& rgb = rgb_image.data;
+  for (float& v : rgb) v = std::isfinite(v) ? std::clamp(v, 0.f, 1.f) : kNetBackground;
+  // 2. Resample to size x size. Each output pixel averages the input over its footprint (box filter of the
+  // footprint size when shrinking, bilinear interpolation when enlarging): pixel centres map as
+  // x_in = (x_out + 0.5) * W / size - 0.5.
+  Eigen::VectorXf out(3 * size * size);
+  const double sx = static_cast<double>(W) / size, sy = static_cast<double>(H) / size;
+  auto sample = [&](double fx, double fy, int c) {  // bilinear, clamped
+    fx = std::clamp(fx, 0.0, W - 1.0);
+    fy = std::clamp(fy, 0.0, H - 1.0);
+    const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
+    const int x1 = std::min(x0 + 1, W - 1), y1 = std::min(y0 + 1, H - 1);
+    const double ax = fx - x0, ay = fy - y0;
+    auto at = [&](int x, int y) { return static_cast<double>(rgb[(static_cast<size_t>(y) * W + x) * 3 + c]); };
+    return (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x1, y0)) + ay * ((1 - ax) * at(x0, y1) + ax * at(x1, y1));
+  };
+  const int nx = std::max(1, static_cast<int>(std::ceil(sx))), ny = std::max(1, static_cast<int>(std::ceil(sy)));
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x)
+      for (int c = 0; c < 3; ++c) {
+        double acc = 0;
+        // nx x ny sub-samples spread evenly over the footprint (1 x 1 = plain bilinear when enlarging).
+        for (int j = 0; j < ny; ++j)
+          for (int i = 0; i < nx; ++i) {
+            const double fx = x * sx + (i + 0.5) * sx / nx - 0.5;
+            const double fy = y * sy + (j + 0.5) * sy / ny - 0.5;
+            acc += sample(fx, fy, c);
+          }
+        out[(static_cast<Eigen::Index>(c) * size + y) * size + x] = static_cast<float>(acc / (nx * ny));
+      }
+  return out;
+}
+
+struct Dataset::Cache {
+  std::mutex mutex;
+  std::unordered_map<size_t, std::shared_ptr<const MatrixXfR>> samples;
+};
+
+Dataset::Dataset(const DatasetSettings& settings) : root_(settings.root), cache_(std::make_unique<Cache>()) {
+  if (!fs::is_directory(root_)) throw IoError(root_ + ": dataset folder not found");
+  std::vector<std::string> ids;
+  if (!settings.split.empty()) {
+    ids = read_split_file(resolve_split_file(root_, settings.split));
+  } else {
+    for (const auto& cat : fs::directory_iterator(root_)) {
+      if (!cat.is_directory()) continue;
+      for (const auto& shp : fs::directory_iterator(cat.path()))
+        if (shp.is_directory() && fs::exists(shp.path() / "samples.npy"))
+          ids.push_back(cat.path().filename().string() + "/" + shp.path().filename().string());
+    }
+    std::sort(ids.begin(), ids.end());
+  }
+  for (const auto& id : ids) {
+    ShapeEntry e;
+    e.id = id;
+    e.category = id.substr(0, id.find('/'));
+    if (!settings.categories.empty() &&
+        std::find(settings.categories.begin(), settings.categories.end(), e.category) == settings.categories.end())
+      continue;
+    const fs::path dir = fs::path(root_) / id;
+    e.dir = dir.string();
+    if (!fs::exists(dir / "samples.npy")) throw IoError(e.dir + ": shape listed in the split has no samples.npy");
+    e.num_views = count_views(dir);
+    if (settings.require_views && e.num_views == 0)
+      throw IoError(e.dir + ": no views (views/00.png + 00.json); prepare the dataset with --views");
+    shapes_.push_back(std::move(e));
+    if (settings.max_shapes > 0 && static_cast<int>(shapes_.size()) >= settings.max_shapes) break;
+  }
+  if (shapes_.empty()) throw IoError(root_ + ": no prepared shapes found" +
+                                     (settings.split.empty() ? "" : " for split '" + settings.split + "'"));
+}
+
+Dataset::~Dataset() = default;
+Dataset::Dataset(Dataset&&) noexcept = default;
+Dataset& Dataset::operator=(Dataset&&) noexcept = default;
+
+const MatrixXfR& Dataset::samples(size_t i) const {
+  {
+    std::lock_guard<std::mutex> lock(cache_->mutex);
+    if (auto it = cache_->samples.find(i); it != cache_->samples.end()) return *it->second;
+  }
+  const std::string path = (fs::path(shape(i).dir) / "samples.npy").string();
+  auto m = std::make_shared<const MatrixXfR>(read_npy(path));
+  if (m->cols() < 4 || m->rows() == 0) throw IoError(path + ": expected an N x 4 array (x, y, z, sdf)");
+  if (!m->allFinite()) throw IoError(path + ": contains non-finite values");
+  std::lock_guard<std::mutex> lock(cache_->mutex);
+  auto [it, inserted] = cache_->samples.emplace(i, std::move(m));
+  return *it->second;
+}
+
+std::string Dataset::view_path(size_t i, int view, const char* ext) const {
+  return (fs::path(shape(i).dir) / "views" / (two_digits(view) + "." + ext)).string();
+}
+
+std::string Dataset::gt_mesh_path(size_t i) const { return (fs::path(shape(i).dir) / "gt.obj").string(); }
+
+Camera Dataset::camera(size_t i, int view) const {
+  require(view >= 0 && view < shape(i).num_views, shape(i).dir + ": view " + std::to_string(view) + " out of range");
+  const std::string path = view_path(i, view, "json");
+  try {
+    return read_camera(path);
+  } catch (const IoError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw IoError(path + ": bad camera (" + e.what() + ")");
+  }
+}
+
+Image Dataset::image(size_t i, int view) const {
+  require(view >= 0 && view < shape(i).num_views, shape(i).dir + ": view " + std::to_string(view) + " out of range");
+  return read_image(view_path(i, view, "png"));
+}
+
+Eigen::VectorXf Dataset::input(size_t i, int view) const { return network_image(image(i, view)); }
+
+void draw_samples(const MatrixXfR& samples, int n, uint64_t seed, PointsF& points, Eigen::VectorXf& sdf) {
+  require(samples.rows() > 0 && samples.cols() >= 4, "draw_samples: need an N x 4 sample array");
+  require(n > 0, "draw_samples: n must be positive");
+  Rng rng(seed);
+  const auto N = static_cast<uint64_t>(samples.rows());
+  points.resize(n, 3);
+  sdf.resize(n);
+  if (static_cast<uint64_t>(n) <= N) {
+    // Partial Fisher-Yates over an index array: n distinct rows.
+    std::vector<int> idx(N);
+    std::iota(idx.begin(), idx.end(), 0);
+    for (int k = 0; k < n; ++k) {
+      const uint64_t j = k + rng.below(N - k);
+      std::swap(idx[k], idx[j]);
+      points.row(k) = samples.row(idx[k]).head<3>();
+      sdf[k] = samples(idx[k], 3);
+    }
+  } else {
+    for (int k = 0; k < n; ++k) {
+      const auto j = static_cast<Eigen::Index>(rng.below(N));
+      points.row(k) = samples.row(j).head<3>();
+      sdf[k] = samples(j, 3);
+    }
+  }
+}
+
+BatchSampler::BatchSampler(const Dataset& data, const BatchSettings& settings) : data_(&data), settings_(settings) {
+  require(settings.batch_size > 0, "batch size must be positive");
+  require(settings.points_per_shape > 0, "points per shape must be positive");
+  for (size_t s = 0; s < data.size(); ++s) {
+    const int views = std::max(1, data.shape(s).num_views);  // a shape without views still has its samples
+    for (int v = 0; v < views; ++v) pairs_.emplace_back(static_cast<int>(s), data.shape(s).num_views > 0 ? v : -1);
+  }
+  require(!pairs_.empty(), "empty dataset");
+}
+
+SdfBatch BatchSampler::batch(long step) const {
+  require(step >= 0, "batch step must be non-negative");
+  const int B = settings_.batch_size, N = settings_.points_per_shape;
+  SdfBatch out;
+  out.points_per_item = N;
+  out.shape_index.resize(B);
+  out.view_index.resize(B);
+  out.cameras.resize(B);
+  out.points.resize(static_cast<Eigen::Index>(B) * N, 3);
+  out.sdf.resize(static_cast<Eigen::Index>(B) * N);
+  if (settings_.load_images) out.images.resize(B, 3 * kNetImageSize * kNetImageSize);
+  // Resolve the items of this batch (one permutation per epoch touched).
+  const long n = items_per_epoch();
+  const long first = step * B;
+  std::vector<int> perm;
+  long perm_epoch = -1;
+  for (int b = 0; b < B; ++b) {
+    const long g = first + b, epoch = g / n;
+    if (epoch != perm_epoch) {
+      Rng rng = Rng::derived(settings_.seed ^ 0x5eedba7c4ULL, static_cast<uint64_t>(epoch));
+      perm = permutation(static_cast<int>(n), rng);
+      perm_epoch = epoch;
+    }
+    const auto& [s, v] = pairs_[perm[g % n]];
+    out.shape_index[b] = s;
+    out.view_index[b] = v;
+  }
+  tbb::parallel_for(0, B, [&](int b) {
+    const int s = out.shape_index[b], v = out.view_index[b];
+    PointsF pts;
+    Eigen::VectorXf d;
+    draw_samples(data_->samples(s), N, Rng::mix(settings_.seed + 0x9e37ULL * static_cast<uint64_t>(first + b + 1)),
+                 pts, d);
+    out.points.middleRows(static_cast<Eigen::Index>(b) * N, N) = pts;
+    out.sdf.segment(static_cast<Eigen::Index>(b) * N, N) = d;
+    if (v >= 0) {
+      out.cameras[b] = data_->camera(s, v);
+      if (settings_.load_images) out.images.row(b) = data_->input(s, v).transpose();
+    } else if (settings_.load_images) {
+      throw IoError(data_->shape(s).dir + ": no views to load");
+    }
+  });
+  return out;
+}
+
+}  // namespace sdfkit

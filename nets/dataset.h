@@ -1,0 +1,132 @@
+// Reader of a prepared dataset (DESIGN.md "Prepared dataset layout") and the seeded batches both networks
+// train on: rendered views (views/NN.png), their cameras (views/NN.json) and SDF samples (samples.npy).
+//
+// Network input convention (shared by training and `sdfkit recon`, see network_image()):
+//   RGB float in [0, 1], channels-first (C x H x W = 3 x 137 x 137, flattened row by row), alpha composited on a
+//   white background (kNetBackground), resized to 137 x 137 by area averaging / bilinear interpolation.
+#pragma once
+
+#include "camera/camera.h"
+#include "camera/image.h"
+#include "core/files.h"
+#include "core/types.h"
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace sdfkit {
+
+/// Side of the square network input image (DISN's renders are 137 x 137).
+inline constexpr int kNetImageSize = 137;
+/// Background the network sees where the input is transparent (alpha 0): white.
+inline constexpr float kNetBackground = 1.0f;
+
+/// One prepared shape.
+struct ShapeEntry {
+  std::string id;        ///< "<category>/<shape>" as in the split files
+  std::string category;  ///< first path component of id
+  std::string dir;       ///< <root>/<category>/<shape>
+  int num_views = 0;     ///< consecutive views/NN.json + NN.png found, from 00
+};
+
+struct DatasetSettings {
+  std::string root;   ///< prepared dataset folder
+  /// Split list: a file path, or a name ("train", "val", "test") looked up as <root>/<name>.lst and then as
+  /// <root>/../<name>.lst. Empty: every complete shape folder under root (sorted).
+  std::string split;
+  bool require_views = true;  ///< shapes without views are an error (SDF/pose training needs images)
+  int max_shapes = 0;         ///< keep the first N shapes of the list (0 = all)
+  /// Keep only shapes of these categories (names as in the folder names; empty = all).
+  std::vector<std::string> categories;
+};
+
+/// Resolve a split name or path to an existing list file (IoError naming both candidates when missing).
+std::string resolve_split_file(const std::string& root, const std::string& split);
+/// Lines "<category>/<shape>" of a split file (blank lines and '#' comments skipped).
+std::vector<std::string> read_split_file(const std::string& path);
+
+/// Convert any image (1-4 channels, any size) to the network input: RGB in [0,1], alpha composited on
+/// kNetBackground, resized to size x size, channels-first (3 * size * size floats). A grey image is replicated to
+/// RGB; a grey+alpha image is composited. Throws InvalidInput on an empty image.
+Eigen::VectorXf network_image(const Image& image, int size = kNetImageSize);
+
+/// Read-only access to a prepared dataset. Thread-safe: samples are loaded once and cached.
+class Dataset {
+ public:
+  /// Lists the shapes (see DatasetSettings). Throws IoError when root or the split file is unreadable, when a
+  /// listed shape has no samples.npy, or (require_views) no views/00.json; the message names the shape folder.
+  explicit Dataset(const DatasetSettings& settings);
+  ~Dataset();
+  Dataset(Dataset&&) noexcept;
+  Dataset& operator=(Dataset&&) noexcept;
+
+  [[nodiscard]] size_t size() const { return shapes_.size(); }
+  [[nodiscard]] const ShapeEntry& shape(size_t i) const { return shapes_.at(i); }
+  [[nodiscard]] const std::vector<ShapeEntry>& shapes() const { return shapes_; }
+  [[nodiscard]] const std::string& root() const { return root_; }
+
+  /// samples.npy of shape i: N x 4 float (x, y, z, sdf) in the object frame. Cached after the first call.
+  [[nodiscard]] const MatrixXfR& samples(size_t i) const;
+  /// Camera of view v of shape i (views/NN.json).
+  [[nodiscard]] Camera camera(size_t i, int view) const;
+  /// The raw view image (views/NN.png).
+  [[nodiscard]] Image image(size_t i, int view) const;
+  /// The view as network input (network_image of image(i, view)).
+  [[nodiscard]] Eigen::VectorXf input(size_t i, int view) const;
+  /// Path of views/NN.png / NN.json.
+  [[nodiscard]] std::string view_path(size_t i, int view, const char* ext) const;
+  /// Path of gt.obj of shape i.
+  [[nodiscard]] std::string gt_mesh_path(size_t i) const;
+
+ private:
+  std::string root_;
+  std::vector<ShapeEntry> shapes_;
+  struct Cache;
+  std::unique_ptr<Cache> cache_;
+};
+
+/// A training batch: B (shape, view) items, each with its image, camera and N SDF samples.
+struct SdfBatch {
+  MatrixXfR images;                 ///< B x (3 * 137 * 137), channels-first rows (network_image)
+  std::vector<Camera> cameras;      ///< B ground-truth cameras
+  PointsF points;                   ///< (B * N) x 3, item b owns rows [b*N, (b+1)*N)
+  Eigen::VectorXf sdf;              ///< B * N raw SDF values (object frame units)
+  std::vector<int> shape_index;     ///< B indices into the dataset
+  std::vector<int> view_index;      ///< B view numbers
+  int points_per_item = 0;          ///< N
+  [[nodiscard]] int size() const { return static_cast<int>(shape_index.size()); }
+};
+
+struct BatchSettings {
+  int batch_size = 8;            ///< items (shape, view) per batch
+  int points_per_shape = 2048;   ///< SDF samples drawn per item (with replacement when the file has fewer)
+  bool load_images = true;       ///< false: skip image decoding (e.g. a points-only model or a test)
+  uint64_t seed = 1;
+};
+
+/// Deterministic batches: the batch of a given step depends only on (seed, step), not on earlier calls or on
+/// thread scheduling, so a resumed training run sees exactly the batches of an uninterrupted one. The (shape,
+/// view) pairs are visited epoch by epoch in a seeded permutation; points are drawn per item from
+/// Rng::derived(seed, global item number) without replacement (with replacement only when N exceeds the file).
+class BatchSampler {
+ public:
+  BatchSampler(const Dataset& data, const BatchSettings& settings);
+  /// Batch number `step` (0-based). Items are loaded in parallel (TBB); result is identical for any threads.
+  [[nodiscard]] SdfBatch batch(long step) const;
+  /// Number of (shape, view) pairs = items per epoch.
+  [[nodiscard]] long items_per_epoch() const { return static_cast<long>(pairs_.size()); }
+  [[nodiscard]] const BatchSettings& settings() const { return settings_; }
+
+ private:
+  const Dataset* data_;
+  BatchSettings settings_;
+  std::vector<std::pair<int, int>> pairs_;  // (shape, view)
+};
+
+/// Draw `n` rows of `samples` (N x 4) with a seeded generator: without replacement when n <= N.
+void draw_samples(const MatrixXfR& samples, int n, uint64_t seed, PointsF& points, Eigen::VectorXf& sdf);
+
+}  // namespace sdfkit

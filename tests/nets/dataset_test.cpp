@@ -1,0 +1,175 @@
+#include "nets/dataset.h"
+
+#include "camera/camera.h"
+#include "camera/image.h"
+#include "core/error.h"
+#include "core/files.h"
+
+#include <doctest/doctest.h>
+#include <tbb/global_control.h>
+
+#include <filesystem>
+#include <set>
+
+using namespace sdfkit;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// A tiny prepared dataset: 3 shapes (2 categories), 2 or 3 views each, samples whose sdf column encodes the row.
+fs::path make_fake_dataset(const std::string& name) {
+  const fs::path root = fs::temp_directory_path() / name;
+  fs::remove_all(root);
+  const std::vector<std::pair<std::string, int>> shapes = {{"chair/a", 2}, {"chair/b", 3}, {"lamp/c", 2}};
+  int s = 0;
+  for (const auto& [id, views] : shapes) {
+    const fs::path dir = root / id;
+    MatrixXfR samples(100, 4);
+    for (int r = 0; r < 100; ++r) samples.row(r) << 0.01f * r, -0.01f * r, float(s), float(1000 * s + r);
+    write_npy((dir / "samples.npy").string(), samples);
+    for (int v = 0; v < views; ++v) {
+      char nn[8];
+      std::snprintf(nn, sizeof nn, "%02d", v);
+      write_camera((dir / "views" / (std::string(nn) + ".json")).string(), look_at(30.0 * v + 10 * s, 20, 2.0));
+      Image img(137, 137, 4, 0.f);  // transparent, with one opaque red square
+      for (int y = 40; y < 60; ++y)
+        for (int x = 40 + v; x < 60 + v; ++x) {
+          img.at(x, y, 0) = 1.f;
+          img.at(x, y, 3) = 1.f;
+        }
+      write_image((dir / "views" / (std::string(nn) + ".png")).string(), img);
+    }
+    ++s;
+  }
+  write_text_atomic((root / "train.lst").string(), "chair/b\n# comment\n\nlamp/c\n");
+  return root;
+}
+
+}  // namespace
+
+TEST_CASE("dataset lists shapes from a split or from the folder, counts views, reads cameras") {
+  const fs::path root = make_fake_dataset("sdfkit_dataset_list");
+  DatasetSettings all;
+  all.root = root.string();
+  Dataset d(all);
+  REQUIRE(d.size() == 3);
+  CHECK(d.shape(0).id == "chair/a");
+  CHECK(d.shape(1).num_views == 3);
+  CHECK(d.shape(2).category == "lamp");
+  const Camera c = d.camera(1, 2);
+  const Camera expect = look_at(30.0 * 2 + 10, 20, 2.0);
+  CHECK((c.R - expect.R).norm() < 1e-9);
+  CHECK((c.t - expect.t).norm() < 1e-9);
+  CHECK(d.samples(2)(5, 3) == 2005.f);
+
+  DatasetSettings split = all;
+  split.split = "train";
+  Dataset t(split);
+  REQUIRE(t.size() == 2);
+  CHECK(t.shape(0).id == "chair/b");
+  split.categories = {"lamp"};
+  CHECK(Dataset(split).size() == 1);
+
+  // A listed shape without samples is an error naming it.
+  write_text_atomic((root / "bad.lst").string(), "chair/zzz\n");
+  split.categories.clear();
+  split.split = (root / "bad.lst").string();
+  CHECK_THROWS_AS(Dataset{split}, IoError);
+  split.split = "nosuchsplit";
+  CHECK_THROWS_AS(Dataset{split}, IoError);
+  fs::remove_all(root);
+}
+
+TEST_CASE("network_image composites alpha on the background and resamples any size to 137") {
+  Image transparent(50, 80, 4, 0.f);
+  Eigen::VectorXf v = network_image(transparent);
+  REQUIRE(v.size() == 3 * 137 * 137);
+  CHECK((v.array() == kNetBackground).all());
+
+  // Same-size input passes through exactly (channels-first layout).
+  Image rgb(137, 137, 3, 0.f);
+  for (int y = 0; y < 137; ++y)
+    for (int x = 0; x < 137; ++x)
+      for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = static_cast<float>((x + 2 * y + 3 * c) % 17) / 16.f;
+  v = network_image(rgb);
+  for (int c = 0; c < 3; ++c)
+    for (int y = 0; y < 137; y += 7)
+      for (int x = 0; x < 137; x += 5) CHECK(v[(c * 137 + y) * 137 + x] == doctest::Approx(rgb.at(x, y, c)));
+
+  // Downsampling a 2x image of a constant and of a half-split image: averages are preserved.
+  Image big(274, 274, 1, 0.25f);
+  for (int y = 0; y < 274; ++y)
+    for (int x = 137; x < 274; ++x) big.at(x, y) = 0.75f;
+  v = network_image(big);
+  CHECK(v[0] == doctest::Approx(0.25f));
+  CHECK(v[136] == doctest::Approx(0.75f));
+  CHECK(v.mean() == doctest::Approx(0.5f).epsilon(1e-4));
+
+  CHECK_THROWS_AS(network_image(Image{}), InvalidInput);
+}
+
+TEST_CASE("batches are deterministic per step, thread-count independent, and cover each epoch once") {
+  const fs::path root = make_fake_dataset("sdfkit_dataset_batch");
+  DatasetSettings ds;
+  ds.root = root.string();
+  Dataset d(ds);
+  BatchSettings bs;
+  bs.batch_size = 7;  // 7 pairs per epoch (2 + 3 + 2 views)
+  bs.points_per_shape = 30;
+  bs.seed = 42;
+  BatchSampler sampler(d, bs);
+  REQUIRE(sampler.items_per_epoch() == 7);
+
+  const SdfBatch a = sampler.batch(3);
+  SdfBatch b;
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    b = sampler.batch(3);
+  }
+  CHECK((a.images.array() == b.images.array()).all());
+  CHECK((a.points.array() == b.points.array()).all());
+  CHECK((a.sdf.array() == b.sdf.array()).all());
+  CHECK(a.shape_index == b.shape_index);
+
+  // One batch = one epoch here: every (shape, view) pair exactly once.
+  std::set<std::pair<int, int>> seen;
+  for (int i = 0; i < a.size(); ++i) seen.insert({a.shape_index[i], a.view_index[i]});
+  CHECK(seen.size() == 7);
+  // Different steps differ in order or points.
+  const SdfBatch c = sampler.batch(4);
+  CHECK(!((c.sdf.array() == a.sdf.array()).all()));
+
+  // Points belong to their item's shape, without repetition; camera and image are of the item's view.
+  for (int i = 0; i < a.size(); ++i) {
+    std::set<float> rows;
+    for (int k = 0; k < 30; ++k) {
+      const float sdf = a.sdf[i * 30 + k];
+      CHECK(static_cast<int>(sdf) / 1000 == a.shape_index[i]);
+      CHECK(a.points(i * 30 + k, 2) == float(a.shape_index[i]));
+      rows.insert(sdf);
+    }
+    CHECK(rows.size() == 30);
+    const Camera expect = d.camera(a.shape_index[i], a.view_index[i]);
+    CHECK((a.cameras[i].R - expect.R).norm() == 0.0);
+    // The red square starts at column 40 + view: pixel (40 + view, 50) is red, (39 + view, 50) is background.
+    const int v = a.view_index[i];
+    const auto px = [&](int c, int y, int x) { return a.images(i, (c * 137 + y) * 137 + x); };
+    CHECK(px(1, 50, 40 + v) == doctest::Approx(0.f));
+    CHECK(px(1, 50, 39 + v) == doctest::Approx(1.f));
+  }
+  fs::remove_all(root);
+}
+
+TEST_CASE("draw_samples draws distinct rows, and with replacement only beyond the file size") {
+  MatrixXfR s(10, 4);
+  for (int r = 0; r < 10; ++r) s.row(r) << float(r), 0, 0, float(r);
+  PointsF p;
+  Eigen::VectorXf d;
+  draw_samples(s, 10, 7, p, d);
+  std::set<float> u(d.data(), d.data() + d.size());
+  CHECK(u.size() == 10);
+  draw_samples(s, 25, 7, p, d);
+  CHECK(d.size() == 25);
+  CHECK((p.col(0).array() == d.array()).all());
+  CHECK_THROWS_AS(draw_samples(s, 0, 7, p, d), InvalidInput);
+}
