@@ -1,0 +1,62 @@
+#include "metrics/kdtree.h"
+
+#include "core/error.h"
+#include "test_util.h"
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <limits>
+#include <tbb/global_control.h>
+
+using namespace sdfkit;
+using namespace sdfkit::metrics;
+using namespace sdfkit::metrics::testing;
+
+TEST_CASE("KD-tree nearest and knn agree with brute force") {
+  const Points set = random_cloud(3000, 1);
+  const Points queries = random_cloud(500, 2, 1.3);
+  KdTree tree(set);
+  Eigen::VectorXi idx;
+  Eigen::VectorXd d2;
+  tree.nearest(queries, idx, d2);
+  for (Eigen::Index i = 0; i < queries.rows(); ++i) {
+    const auto [j, bd2] = brute_nearest(set, queries.row(i));
+    CHECK(d2(i) == doctest::Approx(bd2).epsilon(1e-12));
+    CHECK((set.row(idx(i)) - queries.row(i)).squaredNorm() == doctest::Approx(bd2).epsilon(1e-12));
+  }
+  // knn: the k smallest distances, sorted
+  for (int i = 0; i < 20; ++i) {
+    const Vec3 q = queries.row(i);
+    std::vector<double> all(set.rows());
+    for (Eigen::Index j = 0; j < set.rows(); ++j) all[j] = (set.row(j) - q.transpose()).squaredNorm();
+    std::sort(all.begin(), all.end());
+    const auto nn = tree.knn(q, 16);
+    REQUIRE(nn.size() == 16);
+    for (int k = 0; k < 16; ++k) CHECK(nn[k].second == doctest::Approx(all[k]).epsilon(1e-12));
+  }
+  CHECK(tree.knn(Vec3::Zero(), 5000).size() == 3000);
+}
+
+TEST_CASE("KD-tree survives a move and gives the same answers with one or two threads") {
+  const Points set = random_cloud(2000, 5);
+  const Points queries = random_cloud(2000, 6);
+  KdTree a(set);
+  KdTree b = std::move(a);
+  Eigen::VectorXi i1, i2;
+  Eigen::VectorXd d1, d2;
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    b.nearest(queries, i1, d1);
+  }
+  b.nearest(queries, i2, d2);
+  CHECK(i1 == i2);
+  CHECK(d1 == d2);
+}
+
+TEST_CASE("KD-tree refuses empty and non-finite sets") {
+  CHECK_THROWS_AS(KdTree(Points(0, 3)), InvalidInput);
+  Points p = random_cloud(10, 1);
+  p(3, 1) = std::numeric_limits<double>::infinity();
+  CHECK_THROWS_WITH_AS(KdTree(p, "gt.xyz"), doctest::Contains("gt.xyz"), InvalidInput);
+}
