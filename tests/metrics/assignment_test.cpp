@@ -1,0 +1,82 @@
+#include "metrics/assignment.h"
+
+#include "core/error.h"
+#include "core/random.h"
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <numeric>
+
+using namespace sdfkit;
+using namespace sdfkit::metrics;
+
+namespace {
+
+double brute_force_min(const Eigen::MatrixXd& c) {
+  std::vector<int> p(c.rows());
+  std::iota(p.begin(), p.end(), 0);
+  double best = 1e300;
+  do {
+    double s = 0;
+    for (int i = 0; i < c.rows(); ++i) s += c(i, p[i]);
+    best = std::min(best, s);
+  } while (std::next_permutation(p.begin(), p.end()));
+  return best;
+}
+
+Eigen::MatrixXd random_costs(int n, uint64_t seed, int distinct_values = 0) {
+  Rng rng(seed);
+  Eigen::MatrixXd c(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      c(i, j) = distinct_values > 0 ? static_cast<double>(rng.below(distinct_values)) : rng.uniform();
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("Hungarian method equals the minimum over all permutations (n <= 7)") {
+  for (int n = 1; n <= 7; ++n)
+    for (uint64_t seed = 0; seed < 6; ++seed) {
+      // integer costs with few values: many ties
+      const Eigen::MatrixXd c = random_costs(n, 100 * n + seed, seed % 2 == 0 ? 0 : 3);
+      double total = 0;
+      const std::vector<int> m = hungarian(c, &total);
+      std::vector<int> sorted = m;
+      std::sort(sorted.begin(), sorted.end());
+      for (int i = 0; i < n; ++i) CHECK(sorted[i] == i);  // a permutation
+      CHECK(total == doctest::Approx(brute_force_min(c)).epsilon(1e-12));
+    }
+  CHECK_THROWS_AS(hungarian(Eigen::MatrixXd::Zero(2, 3)), InvalidInput);
+}
+
+TEST_CASE("sparse shortest-path assignment on a complete graph equals the Hungarian optimum") {
+  for (int n : {1, 3, 10, 60}) {
+    const Eigen::MatrixXd c = random_costs(n, 7 * n, n == 60 ? 5 : 0);
+    SparseAssignment s(n);
+    for (int i = 0; i < n; ++i) {
+      std::vector<std::pair<int, double>> e;
+      for (int j = 0; j < n; ++j) e.emplace_back(j, c(i, j));
+      s.add_edges(i, e);
+    }
+    s.greedy_start();
+    CHECK(s.solve().empty());
+    double total = 0, ref = 0;
+    for (int i = 0; i < n; ++i) total += c(i, s.col_of_row()[i]);
+    hungarian(c, &ref);
+    CHECK(total == doctest::Approx(ref).epsilon(1e-12));
+    // duals: reduced costs non-negative everywhere, zero on the assignment
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) CHECK(c(i, j) - s.row_dual(i) - s.column_prices()[j] > -1e-12);
+  }
+}
+
+TEST_CASE("sparse assignment reports rows without an augmenting path") {
+  SparseAssignment s(2);
+  s.add_edges(0, {{0, 1.0}});
+  s.add_edges(1, {{0, 2.0}});  // both rows only reach column 0
+  s.greedy_start();
+  const std::vector<int> failed = s.solve();
+  CHECK(failed.size() == 1);
+}
