@@ -1,0 +1,518 @@
+#include "nets/sdf_net.h"
+
+#include "core/error.h"
+#include "nets/bilinear_sample.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace sdfkit {
+
+std::string to_string(SdfVariant v) {
+  switch (v) {
+    case SdfVariant::TwoStream: return "two-stream";
+    case SdfVariant::OneStream: return "one-stream";
+    case SdfVariant::GlobalOnly: return "global-only";
+    case SdfVariant::Binary: return "binary";
+  }
+  return "two-stream";
+}
+
+SdfVariant sdf_variant_from_string(const std::string& s) {
+  if (s == "two-stream") return SdfVariant::TwoStream;
+  if (s == "one-stream") return SdfVariant::OneStream;
+  if (s == "global-only") return SdfVariant::GlobalOnly;
+  if (s == "binary") return SdfVariant::Binary;
+  throw InvalidInput("unknown SDF network variant '" + s + "' (two-stream, one-stream, global-only, binary)");
+}
+
+Json SdfNetConfig::to_json() const {
+  return {{"variant", to_string(variant)},
+          {"image_size", image_size},
+          {"encoder_channels", encoder_channels},
+          {"extra_convs", extra_convs},
+          {"global_features", global_features},
+          {"point_mlp", point_mlp},
+          {"decoder", decoder},
+          {"one_stream_maps", one_stream_maps},
+          {"sdf_scale", sdf_scale},
+          {"sdf_offset", sdf_offset}};
+}
+
+SdfNetConfig SdfNetConfig::from_json(const Json& j) {
+  SdfNetConfig c;
+  try {
+    c.variant = sdf_variant_from_string(j.at("variant").get<std::string>());
+    c.image_size = j.at("image_size").get<int>();
+    c.encoder_channels = j.at("encoder_channels").get<std::vector<int>>();
+    c.extra_convs = j.at("extra_convs").get<int>();
+    c.global_features = j.at("global_features").get<int>();
+    c.point_mlp = j.at("point_mlp").get<std::vector<int>>();
+    c.decoder = j.at("decoder").get<std::vector<int>>();
+    c.one_stream_maps = j.at("one_stream_maps").get<int>();
+    c.sdf_scale = j.at("sdf_scale").get<float>();
+    c.sdf_offset = j.at("sdf_offset").get<float>();
+  } catch (const InvalidInput& e) {
+    throw IoError(std::string("SDF network configuration: ") + e.what());
+  } catch (const std::exception& e) {
+    throw IoError(std::string("SDF network configuration: missing or invalid field (") + e.what() + ")");
+  }
+  return c;
+}
+
+template <typename T>
+void project_for_sampling(const Camera& camera, const PointsF& points, int image_size, T* positions_xy) {
+  const PixelsF px = project_points(camera, points);
+  // Camera pixels have their corner at 0 (centre of pixel j at j + 0.5); the sampler puts centres at integers.
+  const double sx = static_cast<double>(image_size) / camera.width;
+  const double sy = static_cast<double>(image_size) / camera.height;
+  for (Eigen::Index i = 0; i < px.rows(); ++i) {
+    positions_xy[2 * i] = static_cast<T>(px(i, 0) * sx - 0.5);
+    positions_xy[2 * i + 1] = static_cast<T>(px(i, 1) * sy - 0.5);
+  }
+}
+
+namespace {
+
+/// A chain of layers whose activations live in a caller-owned vector (so the chain itself is stateless and can
+/// be run by several threads at once).
+template <typename T>
+struct Chain {
+  std::vector<std::unique_ptr<Layer<T>>> layers;
+
+  template <typename L, typename... Args>
+  void emplace(Args&&... args) {
+    layers.push_back(std::make_unique<L>(std::forward<Args>(args)...));
+  }
+  void register_params(ParamStore<T>& store) {
+    for (auto& l : layers) store.add(*l);
+  }
+  /// acts[i] = output of layer i.
+  void forward(const TensorT<T>& x, std::vector<TensorT<T>>& acts) const {
+    acts.resize(layers.size());
+    const TensorT<T>* in = &x;
+    for (size_t i = 0; i < layers.size(); ++i) {
+      layers[i]->forward(*in, acts[i]);
+      in = &acts[i];
+    }
+  }
+  /// Inference: only the output is kept (two ping-pong buffers).
+  void run(const TensorT<T>& x, TensorT<T>& y) const {
+    TensorT<T> a, b;
+    const TensorT<T>* in = &x;
+    for (size_t i = 0; i < layers.size(); ++i) {
+      TensorT<T>& out = (i + 1 == layers.size()) ? y : (i % 2 == 0 ? a : b);
+      layers[i]->forward(*in, out);
+      in = &out;
+    }
+    if (layers.empty()) y = x;
+  }
+  static const TensorT<T>& output(const TensorT<T>& x, const std::vector<TensorT<T>>& acts) {
+    return acts.empty() ? x : acts.back();
+  }
+  void backward(const TensorT<T>& x, const std::vector<TensorT<T>>& acts, const TensorT<T>& dy, TensorT<T>* dx) const {
+    TensorT<T> g = dy, prev;
+    for (size_t i = layers.size(); i-- > 0;) {
+      const TensorT<T>& in = i == 0 ? x : acts[i - 1];
+      const bool need_dx = i > 0 || dx != nullptr;
+      layers[i]->backward(in, acts[i], g, need_dx ? &prev : nullptr);
+      if (need_dx) std::swap(g, prev);
+    }
+    if (dx) *dx = std::move(g);
+  }
+};
+
+template <typename T>
+void add_into(TensorT<T>& acc, const TensorT<T>& x) {
+  if (acc.shape != x.shape) {
+    acc = x;
+    return;
+  }
+  for (int64_t i = 0; i < acc.size(); ++i) acc[i] += x[i];
+}
+
+}  // namespace
+
+template <typename T>
+struct SdfNetT<T>::Impl {
+  struct Stream {
+    bool uses_global = true;
+    int local_maps = 0;  // features of maps [0, local_maps)
+    int local_channels = 0;
+    Chain<T> point_mlp;
+    std::unique_ptr<Linear<T>> first_p;  // [P, L] -> H1 (bias only when the stream has no global term)
+    std::unique_ptr<Linear<T>> first_g;  // G -> H1 with bias: the per-shape bias
+    Activation<T> act{ActivationKind::ReLU};
+    Chain<T> rest;  // H1 -> ... -> 1
+  };
+  std::vector<Chain<T>> stages;
+  std::vector<int> map_channels, map_sizes;
+  Chain<T> global;  // flatten, linear, relu
+  std::vector<Stream> streams;
+  int max_local_maps = 0;
+};
+
+template <typename T>
+struct SdfNetT<T>::Workspace::Data {
+  TensorT<T> input;                            // B x 3 x S x S, centred
+  std::vector<std::vector<TensorT<T>>> stage_acts;
+  std::vector<TensorT<T>> maps;                // stage outputs (copies for the public accessor)
+  std::vector<TensorT<T>> global_acts;
+  TensorT<T> points;                           // B x N x 3
+  TensorT<T> positions;                        // B x N x 2
+  std::vector<TensorT<T>> feats;               // per map: B x N x c_k
+  struct StreamActs {
+    std::vector<TensorT<T>> pmlp;
+    TensorT<T> in, z, h, gbias;
+    std::vector<TensorT<T>> rest;
+  };
+  std::vector<StreamActs> streams;
+  int64_t B = 0, N = 0;
+};
+
+template <typename T>
+SdfNetT<T>::Workspace::Workspace() : d(std::make_unique<Data>()) {}
+template <typename T>
+SdfNetT<T>::Workspace::~Workspace() = default;
+template <typename T>
+SdfNetT<T>::Workspace::Workspace(Workspace&&) noexcept = default;
+template <typename T>
+typename SdfNetT<T>::Workspace& SdfNetT<T>::Workspace::operator=(Workspace&&) noexcept = default;
+
+template <typename T>
+SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::make_unique<Impl>()) {
+  const SdfNetConfig& c = config_;
+  require(c.image_size >= 8, "SDF network: image_size must be >= 8");
+  require(!c.encoder_channels.empty(), "SDF network: need at least one encoder stage");
+  require(!c.point_mlp.empty() && !c.decoder.empty(), "SDF network: point MLP and decoder need widths");
+  require(c.sdf_scale > 0, "SDF network: sdf_scale must be positive");
+  Impl& m = *impl_;
+  // Encoder.
+  int in_c = 3, size = c.image_size;
+  for (size_t k = 0; k < c.encoder_channels.size(); ++k) {
+    const int out_c = c.encoder_channels[k];
+    require(out_c > 0, "SDF network: encoder channels must be positive");
+    Chain<T> st;
+    st.template emplace<Conv2d<T>>(Conv2dSettings{in_c, out_c, 3, 2, 1, true});
+    st.template emplace<Activation<T>>(ActivationKind::ReLU);
+    if (k > 0)
+      for (int e = 0; e < c.extra_convs; ++e) {
+        st.template emplace<Conv2d<T>>(Conv2dSettings{out_c, out_c, 3, 1, 1, true});
+        st.template emplace<Activation<T>>(ActivationKind::ReLU);
+      }
+    size = (size + 2 - 3) / 2 + 1;
+    require(size >= 2, "SDF network: too many encoder stages for the image size");
+    m.stages.push_back(std::move(st));
+    m.map_channels.push_back(out_c);
+    m.map_sizes.push_back(size);
+    in_c = out_c;
+  }
+  const int flat = in_c * size * size;
+  m.global.template emplace<Flatten<T>>();
+  m.global.template emplace<Linear<T>>(flat, c.global_features);
+  m.global.template emplace<Activation<T>>(ActivationKind::ReLU);
+
+  // Streams.
+  const int all_maps = static_cast<int>(c.encoder_channels.size());
+  auto make_stream = [&](bool uses_global, int local_maps) {
+    typename Impl::Stream s;
+    s.uses_global = uses_global;
+    s.local_maps = local_maps;
+    for (int k = 0; k < local_maps; ++k) s.local_channels += m.map_channels[k];
+    int prev = 3;
+    for (int w : c.point_mlp) {
+      s.point_mlp.template emplace<Linear<T>>(prev, w);
+      s.point_mlp.template emplace<Activation<T>>(ActivationKind::ReLU);
+      prev = w;
+    }
+    const int h1 = c.decoder[0];
+    s.first_p = std::make_unique<Linear<T>>(prev + s.local_channels, h1, !uses_global);
+    if (uses_global) s.first_g = std::make_unique<Linear<T>>(c.global_features, h1, true);
+    prev = h1;
+    for (size_t i = 1; i < c.decoder.size(); ++i) {
+      s.rest.template emplace<Linear<T>>(prev, c.decoder[i]);
+      s.rest.template emplace<Activation<T>>(ActivationKind::ReLU);
+      prev = c.decoder[i];
+    }
+    s.rest.template emplace<Linear<T>>(prev, 1);
+    m.max_local_maps = std::max(m.max_local_maps, local_maps);
+    m.streams.push_back(std::move(s));
+  };
+  switch (c.variant) {
+    case SdfVariant::TwoStream:
+    case SdfVariant::Binary:
+      make_stream(true, 0);
+      make_stream(false, all_maps);
+      break;
+    case SdfVariant::OneStream:
+      require(c.one_stream_maps >= 1 && c.one_stream_maps <= all_maps,
+              "SDF network: one_stream_maps must be in [1, number of encoder stages]");
+      make_stream(true, c.one_stream_maps);
+      break;
+    case SdfVariant::GlobalOnly: make_stream(true, 0); break;
+  }
+  // Parameters: encoder, global head, streams (this order is the checkpoint layout).
+  for (auto& st : m.stages) st.register_params(store_);
+  m.global.register_params(store_);
+  for (auto& s : m.streams) {
+    s.point_mlp.register_params(store_);
+    store_.add(*s.first_p);
+    if (s.first_g) store_.add(*s.first_g);
+    s.rest.register_params(store_);
+  }
+  store_.allocate(false);
+}
+
+template <typename T>
+SdfNetT<T>::~SdfNetT() = default;
+
+template <typename T>
+int SdfNetT<T>::local_channels(int stream) const {
+  return impl_->streams.at(static_cast<size_t>(stream)).local_channels;
+}
+
+template <typename T>
+std::vector<int> SdfNetT<T>::map_sizes() const {
+  return impl_->map_sizes;
+}
+
+template <typename T>
+const std::vector<TensorT<T>>& SdfNetT<T>::maps(const Workspace& ws) const {
+  return ws.d->maps;
+}
+
+template <typename T>
+void SdfNetT<T>::forward(const TensorT<T>& images, const std::vector<Camera>& cameras, const TensorT<T>& points,
+                         Workspace& wsp, TensorT<T>& pred) const {
+  auto& ws = *wsp.d;
+  const Impl& m = *impl_;
+  const int S = config_.image_size;
+  require_rank(images, 4, "SDF network images");
+  require_rank(points, 3, "SDF network points");
+  const int64_t B = images.dim(0), N = points.dim(1);
+  require(images.dim(1) == 3 && images.dim(2) == S && images.dim(3) == S,
+          "SDF network: images must be B x 3 x " + std::to_string(S) + " x " + std::to_string(S) + ", got " +
+              shape_string(images.shape));
+  require(points.dim(0) == B && points.dim(2) == 3, "SDF network: points must be B x N x 3");
+  require(static_cast<int64_t>(cameras.size()) == B, "SDF network: one camera per image");
+  ws.B = B;
+  ws.N = N;
+  // Encoder (input centred on 0).
+  ws.input = images;
+  for (auto& v : ws.input.data) v -= T(0.5);
+  ws.stage_acts.resize(m.stages.size());
+  ws.maps.resize(m.stages.size());
+  const TensorT<T>* in = &ws.input;
+  for (size_t k = 0; k < m.stages.size(); ++k) {
+    m.stages[k].forward(*in, ws.stage_acts[k]);
+    in = &ws.stage_acts[k].back();
+    ws.maps[k] = *in;
+  }
+  m.global.forward(*in, ws.global_acts);
+  const TensorT<T>& G = ws.global_acts.back();
+  // Projections and local features.
+  ws.points = points;
+  ws.positions.resize({B, N, 2});
+  if (m.max_local_maps > 0) {
+    tbb::parallel_for(int64_t(0), B, [&](int64_t b) {
+      PointsF p = Eigen::Map<const Eigen::Matrix<T, Eigen::Dynamic, 3, Eigen::RowMajor>>(points.item(b), N, 3)
+                      .template cast<float>();
+      project_for_sampling<T>(cameras[static_cast<size_t>(b)], p, S, ws.positions.item(b));
+    });
+  }
+  ws.feats.resize(static_cast<size_t>(m.max_local_maps));
+  BilinearSampleSettings bs{S, S};
+  for (int k = 0; k < m.max_local_maps; ++k) bilinear_sample(ws.maps[k], ws.positions, ws.feats[k], bs);
+  // Streams.
+  ws.streams.resize(m.streams.size());
+  pred.assign({B, N}, T(0));
+  for (size_t si = 0; si < m.streams.size(); ++si) {
+    const auto& s = m.streams[si];
+    auto& a = ws.streams[si];
+    s.point_mlp.forward(points, a.pmlp);
+    const TensorT<T>& pf = Chain<T>::output(points, a.pmlp);
+    if (s.local_maps > 0) {
+      std::vector<const TensorT<T>*> parts{&pf};
+      for (int k = 0; k < s.local_maps; ++k) parts.push_back(&ws.feats[k]);
+      concat(parts, -1, a.in);
+    } else {
+      a.in = pf;
+    }
+    s.first_p->forward(a.in, a.z);
+    if (s.uses_global) {
+      s.first_g->forward(G, a.gbias);
+      TensorT<T> bc;
+      broadcast_points(a.gbias, N, bc);
+      for (int64_t i = 0; i < a.z.size(); ++i) a.z[i] += bc[i];
+    }
+    s.act.forward(a.z, a.h);
+    s.rest.forward(a.h, a.rest);
+    const TensorT<T>& out = Chain<T>::output(a.h, a.rest);
+    for (int64_t i = 0; i < B * N; ++i) pred[i] += out[i];
+  }
+}
+
+template <typename T>
+void SdfNetT<T>::backward(Workspace& wsp, const TensorT<T>& dpred) const {
+  auto& ws = *wsp.d;
+  const Impl& m = *impl_;
+  const int64_t B = ws.B, N = ws.N;
+  require(dpred.size() == B * N, "SDF network backward: dpred must be B x N");
+  TensorT<T> dout = dpred;
+  dout.reshape({B, N, 1});
+  const TensorT<T>& G = ws.global_acts.back();
+  TensorT<T> dG({B, static_cast<int64_t>(config_.global_features)}, T(0));
+  std::vector<TensorT<T>> dfeats(ws.feats.size());
+  for (size_t si = 0; si < m.streams.size(); ++si) {
+    const auto& s = m.streams[si];
+    auto& a = ws.streams[si];
+    TensorT<T> dh, dz, din, dpf;
+    s.rest.backward(a.h, a.rest, dout, &dh);
+    s.act.backward(a.z, a.h, dh, &dz);
+    if (s.uses_global) {
+      TensorT<T> dgb, dGs;
+      broadcast_points_backward(dz, dgb);
+      s.first_g->backward(G, a.gbias, dgb, &dGs);
+      add_into(dG, dGs);
+    }
+    s.first_p->backward(a.in, a.z, dz, &din);
+    const TensorT<T>& pf = Chain<T>::output(ws.points, a.pmlp);
+    if (s.local_maps > 0) {
+      std::vector<Shape> shapes{pf.shape};
+      std::vector<TensorT<T>> parts(static_cast<size_t>(s.local_maps));
+      std::vector<TensorT<T>*> outs{&dpf};
+      for (int k = 0; k < s.local_maps; ++k) {
+        shapes.push_back(ws.feats[k].shape);
+        outs.push_back(&parts[k]);
+      }
+      concat_backward(din, shapes, -1, outs);
+      for (int k = 0; k < s.local_maps; ++k) add_into(dfeats[k], parts[k]);
+    } else {
+      dpf = std::move(din);
+    }
+    s.point_mlp.backward(ws.points, a.pmlp, dpf, nullptr);
+  }
+  // Maps: local-feature gradients and the global head's.
+  const size_t K = m.stages.size();
+  std::vector<TensorT<T>> dmaps(K);
+  BilinearSampleSettings bs{config_.image_size, config_.image_size};
+  for (size_t k = 0; k < dfeats.size(); ++k) {
+    if (dfeats[k].empty()) continue;
+    dmaps[k].assign(ws.maps[k].shape, T(0));
+    bilinear_sample_backward<T>(ws.maps[k], ws.positions, dfeats[k], &dmaps[k], static_cast<TensorT<T>*>(nullptr), bs);
+  }
+  {
+    TensorT<T> dlast;
+    m.global.backward(ws.maps[K - 1], ws.global_acts, dG, &dlast);
+    add_into(dmaps[K - 1], dlast);
+  }
+  // Encoder, last stage first.
+  for (size_t k = K; k-- > 0;) {
+    if (dmaps[k].empty()) continue;
+    const TensorT<T>& in = k == 0 ? ws.input : ws.maps[k - 1];
+    TensorT<T> dx;
+    m.stages[k].backward(in, ws.stage_acts[k], dmaps[k], k > 0 ? &dx : nullptr);
+    if (k > 0) add_into(dmaps[k - 1], dx);
+  }
+}
+
+template <typename T>
+typename SdfNetT<T>::ShapeCode SdfNetT<T>::encode(const T* image, const Camera& camera) const {
+  const Impl& m = *impl_;
+  const int S = config_.image_size;
+  ShapeCode code;
+  code.camera = camera;
+  TensorT<T> x({1, 3, S, S});
+  for (int64_t i = 0; i < x.size(); ++i) x[i] = image[i] - T(0.5);
+  code.maps.resize(m.stages.size());
+  const TensorT<T>* in = &x;
+  for (size_t k = 0; k < m.stages.size(); ++k) {
+    m.stages[k].run(*in, code.maps[k]);
+    in = &code.maps[k];
+  }
+  m.global.run(*in, code.global);
+  code.bias.resize(m.streams.size());
+  for (size_t si = 0; si < m.streams.size(); ++si)
+    if (m.streams[si].uses_global) m.streams[si].first_g->forward(code.global, code.bias[si]);
+  return code;
+}
+
+template <typename T>
+void SdfNetT<T>::local_features(const ShapeCode& code, const PointsF& points, TensorT<T>& features) const {
+  const Impl& m = *impl_;
+  const int S = config_.image_size;
+  const auto n = static_cast<int64_t>(points.rows());
+  TensorT<T> pos({1, n, 2});
+  project_for_sampling<T>(code.camera, points, S, pos.ptr());
+  std::vector<TensorT<T>> f(m.stages.size());
+  std::vector<const TensorT<T>*> parts;
+  for (size_t k = 0; k < m.stages.size(); ++k) {
+    bilinear_sample(code.maps[k], pos, f[k], BilinearSampleSettings{S, S});
+    parts.push_back(&f[k]);
+  }
+  concat(parts, -1, features);
+  features.reshape({n, features.dim(-1)});
+}
+
+template <typename T>
+void SdfNetT<T>::predict(const ShapeCode& code, const PointsF& points, Eigen::Matrix<T, Eigen::Dynamic, 1>& pred,
+                         int chunk) const {
+  const Impl& m = *impl_;
+  const int S = config_.image_size;
+  const auto total = static_cast<int64_t>(points.rows());
+  pred.setZero(total);
+  chunk = std::max(1, chunk);
+  for (int64_t c0 = 0; c0 < total; c0 += chunk) {
+    const int64_t n = std::min<int64_t>(chunk, total - c0);
+    const PointsF p = points.middleRows(c0, n);
+    TensorT<T> pts({1, n, 3});
+    for (int64_t i = 0; i < n; ++i)
+      for (int d = 0; d < 3; ++d) pts[3 * i + d] = static_cast<T>(p(i, d));
+    std::vector<TensorT<T>> feats(static_cast<size_t>(m.max_local_maps));
+    if (m.max_local_maps > 0) {
+      TensorT<T> pos({1, n, 2});
+      project_for_sampling<T>(code.camera, p, S, pos.ptr());
+      for (int k = 0; k < m.max_local_maps; ++k)
+        bilinear_sample(code.maps[k], pos, feats[k], BilinearSampleSettings{S, S});
+    }
+    for (size_t si = 0; si < m.streams.size(); ++si) {
+      const auto& s = m.streams[si];
+      TensorT<T> pf, in, z, h, out;
+      s.point_mlp.run(pts, pf);
+      if (s.local_maps > 0) {
+        std::vector<const TensorT<T>*> parts{&pf};
+        for (int k = 0; k < s.local_maps; ++k) parts.push_back(&feats[k]);
+        concat(parts, -1, in);
+      } else {
+        in = std::move(pf);
+      }
+      s.first_p->forward(in, z);
+      if (s.uses_global) {
+        const int64_t H = z.dim(-1);
+        const T* b = code.bias[si].ptr();
+        for (int64_t i = 0; i < n; ++i)
+          for (int64_t j = 0; j < H; ++j) z[i * H + j] += b[j];
+      }
+      s.act.forward(z, h);
+      s.rest.run(h, out);
+      for (int64_t i = 0; i < n; ++i) pred[c0 + i] += out[i];
+    }
+  }
+}
+
+template <typename T>
+void SdfNetT<T>::field(const ShapeCode& code, const Points& points, Eigen::VectorXd& values, int chunk) const {
+  Eigen::Matrix<T, Eigen::Dynamic, 1> pred;
+  predict(code, points.template cast<float>(), pred, chunk);
+  const double sign = config_.variant == SdfVariant::Binary ? -1.0 : 1.0;
+  values = pred.template cast<double>() * (sign / config_.sdf_scale);
+}
+
+template class SdfNetT<float>;
+template class SdfNetT<double>;
+template void project_for_sampling<float>(const Camera&, const PointsF&, int, float*);
+template void project_for_sampling<double>(const Camera&, const PointsF&, int, double*);
+
+}  // namespace sdfkit

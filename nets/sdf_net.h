@@ -1,0 +1,133 @@
+// The DISN-style SDF network: image + camera + 3D points -> signed distance (or occupancy logit) per point.
+//
+//   image (3 x S x S, S = 137) -> CNN encoder: one stride-2 stage per entry of encoder_channels, each stage's
+//     output is a feature map (69, 35, 18, 9, 5 px for S = 137) ...
+//   ... global feature G = ReLU(Linear(flatten(last map)))
+//   ... local feature L(p) = bilinear samples of the maps at the projection of p through the camera
+//   point feature  P(p) = PointMLP(p), one per stream
+//   global stream: MLP([P_g(p), G]) -> 1          (first layer split: W_p P + (W_g G + b), the second term is a
+//   local stream:  MLP([P_l(p), L(p)]) -> 1        per-shape bias computed once per shape)
+//   output = global + local (two-stream), or one decoder on [P, G, L(first maps)] (one-stream), or the global
+//   stream alone (global-only); the binary variant has the two-stream architecture and predicts an occupancy
+//   logit (trained with BCE) instead of 10 x (sdf - 0.003).
+//
+// SDF variants predict pred = sdf_scale * (sdf - sdf_offset) (DISN: 10 x (sdf - 0.003)); field() converts back to
+// an approximate distance whose 0 level is the sdf_offset level of the true SDF (DISN's 0.003 iso-surface).
+//
+// The class is templated on the scalar: float for training and inference, double for gradient checks.
+// Everything mutable lives in caller-owned workspaces, so one network can serve several threads at once.
+#pragma once
+
+#include "camera/camera.h"
+#include "core/files.h"
+#include "core/types.h"
+#include "nets/layers.h"
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace sdfkit {
+
+enum class SdfVariant { TwoStream, OneStream, GlobalOnly, Binary };
+std::string to_string(SdfVariant v);
+/// "two-stream", "one-stream", "global-only", "binary" (InvalidInput otherwise).
+SdfVariant sdf_variant_from_string(const std::string& s);
+
+struct SdfNetConfig {
+  SdfVariant variant = SdfVariant::TwoStream;
+  int image_size = 137;                              ///< input is 3 x image_size x image_size
+  std::vector<int> encoder_channels{16, 32, 64, 96, 128};  ///< one stride-2 3x3 conv stage each (+ReLU)
+  int extra_convs = 1;          ///< stride-1 3x3 convs added to every stage after the first
+  int global_features = 256;    ///< G
+  std::vector<int> point_mlp{64, 128};  ///< 3 -> ... (ReLU after every layer), per stream
+  std::vector<int> decoder{128, 64};    ///< hidden widths of each stream's decoder, then -> 1
+  int one_stream_maps = 3;              ///< one-stream: local features from the first K maps (DISN: 3 of 5)
+  float sdf_scale = 10.f;               ///< pred = sdf_scale * (sdf - sdf_offset)
+  float sdf_offset = 0.003f;
+
+  [[nodiscard]] Json to_json() const;
+  static SdfNetConfig from_json(const Json& j);  ///< IoError on missing/invalid fields
+  [[nodiscard]] bool uses_global() const { return true; }
+  [[nodiscard]] bool uses_local() const { return variant != SdfVariant::GlobalOnly; }
+  [[nodiscard]] int num_streams() const {
+    return variant == SdfVariant::TwoStream || variant == SdfVariant::Binary ? 2 : 1;
+  }
+};
+
+/// Pixel positions (in the network image, pixel centres at integer coordinates as nets/bilinear_sample.h
+/// expects) of object-frame points seen by `camera`, whose image is rescaled to image_size. The camera's own
+/// width/height define its pixel grid; positions are scaled by image_size / width.
+template <typename T>
+void project_for_sampling(const Camera& camera, const PointsF& points, int image_size, T* positions_xy);
+
+template <typename T>
+class SdfNetT {
+ public:
+  explicit SdfNetT(const SdfNetConfig& config);
+  ~SdfNetT();
+  SdfNetT(const SdfNetT&) = delete;
+  SdfNetT& operator=(const SdfNetT&) = delete;
+
+  [[nodiscard]] const SdfNetConfig& config() const { return config_; }
+  /// The flat parameter buffer (and gradients once allocate_grads(true)).
+  ParamStore<T>& params() { return store_; }
+  [[nodiscard]] const ParamStore<T>& params() const { return store_; }
+  [[nodiscard]] size_t n_params() const { return store_.size(); }
+  /// Xavier init from a seed (every layer from Rng::derived(seed, layer)).
+  void init(uint64_t seed) { store_.init(seed); }
+  void allocate_grads(bool on) { store_.allocate(on); }
+
+  // ---- training: whole batches, activations kept in a workspace -------------------------------------------
+  /// Activations of one training forward (opaque; reuse it across steps to keep buffers allocated).
+  class Workspace {
+   public:
+    Workspace();
+    ~Workspace();
+    Workspace(Workspace&&) noexcept;
+    Workspace& operator=(Workspace&&) noexcept;
+    struct Data;
+    std::unique_ptr<Data> d;
+  };
+  /// Forward on B images (B x 3 x S x S, values in [0,1]), B cameras and B x N x 3 points; writes pred (B x N).
+  void forward(const TensorT<T>& images, const std::vector<Camera>& cameras, const TensorT<T>& points,
+               Workspace& ws, TensorT<T>& pred) const;
+  /// Backward from dL/dpred (B x N) of the last forward with `ws`; ADDS parameter gradients.
+  void backward(Workspace& ws, const TensorT<T>& dpred) const;
+  /// Feature maps of the last forward with `ws` (B x c_k x h_k x w_k), for tests.
+  [[nodiscard]] const std::vector<TensorT<T>>& maps(const Workspace& ws) const;
+
+  // ---- inference: per-shape work once, then any number of point batches (thread-safe) ----------------------
+  struct ShapeCode {
+    std::vector<TensorT<T>> maps;  ///< 1 x c_k x h_k x w_k
+    TensorT<T> global;             ///< 1 x G
+    std::vector<TensorT<T>> bias;  ///< per stream: 1 x H1, W_g G + b (the per-shape bias of the first layer)
+    Camera camera;
+  };
+  /// Encode one image (3 x S x S channels-first, values in [0,1]) seen from `camera`.
+  ShapeCode encode(const T* image, const Camera& camera) const;
+  /// Network output (pred) for points (object frame). Thread-safe; internal batches of `chunk` points.
+  void predict(const ShapeCode& code, const PointsF& points, Eigen::Matrix<T, Eigen::Dynamic, 1>& pred,
+               int chunk = 8192) const;
+  /// Approximate signed distance for extraction: pred / sdf_scale (SDF variants; 0 level = sdf_offset level),
+  /// or -logit / sdf_scale for the binary variant (negative inside, not a distance).
+  void field(const ShapeCode& code, const Points& points, Eigen::VectorXd& values, int chunk = 8192) const;
+  /// Local feature of points (N x L, all maps concatenated in order) for tests.
+  void local_features(const ShapeCode& code, const PointsF& points, TensorT<T>& features) const;
+
+  /// Channel count of the local feature a stream sees (0 for global-only).
+  [[nodiscard]] int local_channels(int stream) const;
+  /// Output size (h = w) of each encoder stage.
+  [[nodiscard]] std::vector<int> map_sizes() const;
+
+ private:
+  struct Impl;
+  SdfNetConfig config_;
+  std::unique_ptr<Impl> impl_;
+  ParamStore<T> store_;
+};
+
+using SdfNet = SdfNetT<float>;
+
+}  // namespace sdfkit

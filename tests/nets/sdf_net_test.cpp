@@ -1,0 +1,199 @@
+#include "nets/sdf_net.h"
+
+#include "camera/camera.h"
+#include "core/error.h"
+#include "core/random.h"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+
+using namespace sdfkit;
+
+namespace {
+
+SdfNetConfig tiny_config(SdfVariant v) {
+  SdfNetConfig c;
+  c.variant = v;
+  c.image_size = 17;
+  c.encoder_channels = {2, 3, 3};
+  c.extra_convs = 1;
+  c.global_features = 4;
+  c.point_mlp = {5};
+  c.decoder = {6, 4};
+  c.one_stream_maps = 2;
+  return c;
+}
+
+template <typename T>
+TensorT<T> random_tensor(const Shape& s, Rng& rng, double lo, double hi) {
+  TensorT<T> t(s);
+  for (auto& v : t.data) v = static_cast<T>(rng.uniform(lo, hi));
+  return t;
+}
+
+}  // namespace
+
+TEST_CASE("SDF network: finite-difference gradient check of every parameter class, all variants") {
+  for (SdfVariant v : {SdfVariant::TwoStream, SdfVariant::OneStream, SdfVariant::GlobalOnly, SdfVariant::Binary}) {
+    CAPTURE(to_string(v));
+    SdfNetT<double> net(tiny_config(v));
+    net.allocate_grads(true);
+    net.init(3);
+    Rng rng(11);
+    const int B = 2, N = 6, S = 17;
+    const TensorT<double> images = random_tensor<double>({B, 3, S, S}, rng, 0.0, 1.0);
+    const TensorT<double> points = random_tensor<double>({B, N, 3}, rng, -0.6, 0.6);
+    const std::vector<Camera> cams = {look_at(30, 20, 2.0, S, S), look_at(-100, 35, 2.2, S, S)};
+    const TensorT<double> r = random_tensor<double>({B, N}, rng, -1.0, 1.0);  // L = sum(r * pred)
+    SdfNetT<double>::Workspace ws;
+    TensorT<double> pred;
+    auto loss = [&] {
+      SdfNetT<double>::Workspace w2;
+      TensorT<double> p;
+      net.forward(images, cams, points, w2, p);
+      double L = 0;
+      for (int64_t i = 0; i < p.size(); ++i) L += r[i] * p[i];
+      return L;
+    };
+    net.forward(images, cams, points, ws, pred);
+    net.params().zero_grad();
+    net.backward(ws, r);
+    const std::vector<double> grad = net.params().grads;
+    auto& w = net.params().values;
+    REQUIRE(w.size() == grad.size());
+    // Every layer's slice gets checked at a few entries (and the gradient must not be all zero).
+    int checked = 0, bad = 0;
+    double max_rel = 0;
+    const auto& layers = net.params().layers();
+    for (size_t li = 0; li < layers.size(); ++li) {
+      const size_t n = layers[li]->n_params();
+      if (n == 0) continue;
+      const size_t off = net.params().offset(li);
+      for (int k = 0; k < 6; ++k) {
+        const size_t i = off + static_cast<size_t>(rng.below(n));
+        const double keep = w[i], eps = 1e-6;
+        w[i] = keep + eps;
+        const double lp = loss();
+        w[i] = keep - eps;
+        const double lm = loss();
+        w[i] = keep;
+        const double num = (lp - lm) / (2 * eps);
+        const double rel = std::abs(num - grad[i]) / std::max(1e-7, std::abs(num) + std::abs(grad[i]));
+        max_rel = std::max(max_rel, rel);
+        ++checked;
+        if (rel > 1e-4 && std::abs(num - grad[i]) > 1e-8) ++bad;
+      }
+    }
+    CHECK(checked > 30);
+    CHECK(bad == 0);
+    double gnorm = 0;
+    for (double g : grad) gnorm += g * g;
+    CHECK(gnorm > 0);
+  }
+}
+
+TEST_CASE("SDF network: training forward and the per-shape inference path agree") {
+  SdfNetT<double> net(tiny_config(SdfVariant::TwoStream));
+  net.init(5);
+  Rng rng(2);
+  const int N = 40, S = 17;
+  const TensorT<double> image = random_tensor<double>({1, 3, S, S}, rng, 0.0, 1.0);
+  const TensorT<double> points = random_tensor<double>({1, N, 3}, rng, -0.7, 0.7);
+  const Camera cam = look_at(70, 10, 2.0, S, S);
+  SdfNetT<double>::Workspace ws;
+  TensorT<double> pred;
+  net.forward(image, {cam}, points, ws, pred);
+  const auto code = net.encode(image.ptr(), cam);
+  PointsF p(N, 3);
+  for (int i = 0; i < N; ++i)
+    for (int d = 0; d < 3; ++d) p(i, d) = static_cast<float>(points[3 * i + d]);
+  Eigen::VectorXd inf;
+  net.predict(code, p, inf, 7);  // several internal chunks
+  // Points went through float in the inference path: compare with a tolerance of float rounding.
+  for (int i = 0; i < N; ++i) CHECK(inf[i] == doctest::Approx(pred[i]).epsilon(1e-4).scale(1.0));
+}
+
+TEST_CASE("SDF network: the local-feature path is used and samples where the point projects") {
+  SdfNetT<double> net(tiny_config(SdfVariant::TwoStream));
+  net.init(9);
+  Rng rng(4);
+  const int S = 17;
+  const TensorT<double> image = random_tensor<double>({1, 3, S, S}, rng, 0.0, 1.0);
+  const Camera cam = look_at(40, 25, 2.0, S, S);
+  auto code = net.encode(image.ptr(), cam);
+  PointsF p(3, 3);
+  p << 0.1f, 0.2f, -0.1f, -0.3f, 0.05f, 0.25f, 0.2f, -0.3f, 0.1f;
+
+  // 1. A point moved within the image plane: its local feature is the bilinear interpolation of every map at the
+  //    new projection (computed here independently from the camera and the map sizes).
+  const Vec3 x_axis = cam.R.row(0).transpose();  // camera x in object-frame coordinates
+  PointsF moved = p;
+  for (int i = 0; i < 3; ++i) moved.row(i) += (0.037f * (i + 1)) * x_axis.cast<float>().transpose();
+  TensorT<double> f;
+  net.local_features(code, moved, f);
+  const auto sizes = net.map_sizes();
+  for (int i = 0; i < 3; ++i) {
+    const Eigen::Vector2d px = project(cam, moved.row(i).transpose().cast<double>());
+    int col = 0;
+    for (size_t k = 0; k < code.maps.size(); ++k) {
+      const auto& map = code.maps[k];
+      const int C = static_cast<int>(map.dim(1)), W = sizes[k];
+      // pixel -> network image (centre at integers) -> map, corner-aligned (nets/bilinear_sample.h).
+      double x = (px.x() - 0.5) * (W - 1) / (S - 1.0), y = (px.y() - 0.5) * (W - 1) / (S - 1.0);
+      x = std::clamp(x, 0.0, W - 1.0);
+      y = std::clamp(y, 0.0, W - 1.0);
+      const int x0 = std::min(static_cast<int>(std::floor(x)), W - 2), y0 = std::min(static_cast<int>(std::floor(y)), W - 2);
+      const double ax = x - x0, ay = y - y0;
+      for (int c = 0; c < C; ++c) {
+        auto at = [&](int yy, int xx) { return map[(static_cast<int64_t>(c) * W + yy) * W + xx]; };
+        const double expect = (1 - ay) * ((1 - ax) * at(y0, x0) + ax * at(y0, x0 + 1)) +
+                              ay * ((1 - ax) * at(y0 + 1, x0) + ax * at(y0 + 1, x0 + 1));
+        CHECK(f[i * f.dim(1) + col + c] == doctest::Approx(expect).epsilon(1e-5));
+      }
+      col += C;
+    }
+    CHECK(col == f.dim(1));
+  }
+
+  // 2. A point moved along its camera ray keeps its local feature (same projection).
+  const Vec3 C = camera_center(cam);
+  PointsF along = p;
+  for (int i = 0; i < 3; ++i) {
+    const Vec3 x = p.row(i).transpose().cast<double>();
+    along.row(i) = (C + 0.8 * (x - C)).cast<float>().transpose();
+  }
+  TensorT<double> f1, f2;
+  net.local_features(code, p, f1);
+  net.local_features(code, along, f2);
+  for (int64_t i = 0; i < f1.size(); ++i) CHECK(f1[i] == doctest::Approx(f2[i]).epsilon(1e-4));
+
+  // 3. Zeroing the feature maps changes the output (the local stream reads them).
+  Eigen::VectorXd before, after;
+  net.predict(code, p, before);
+  for (auto& m : code.maps) m.fill(0.0);
+  net.predict(code, p, after);
+  CHECK((before - after).cwiseAbs().maxCoeff() > 1e-6);
+  // ... while for the global-only variant the maps are not read by the decoder at all.
+  SdfNetT<double> g(tiny_config(SdfVariant::GlobalOnly));
+  g.init(9);
+  auto gcode = g.encode(image.ptr(), cam);
+  g.predict(gcode, p, before);
+  for (auto& m : gcode.maps) m.fill(0.0);
+  g.predict(gcode, p, after);
+  CHECK((before - after).cwiseAbs().maxCoeff() == 0.0);
+}
+
+TEST_CASE("SDF network configuration round-trips through JSON and rejects bad values") {
+  SdfNetConfig c = tiny_config(SdfVariant::OneStream);
+  const SdfNetConfig d = SdfNetConfig::from_json(c.to_json());
+  CHECK(d.to_json() == c.to_json());
+  Json bad = c.to_json();
+  bad["variant"] = "three-stream";
+  CHECK_THROWS_AS(SdfNetConfig::from_json(bad), IoError);
+  bad = c.to_json();
+  bad.erase("decoder");
+  CHECK_THROWS_AS(SdfNetConfig::from_json(bad), IoError);
+  c.one_stream_maps = 7;
+  CHECK_THROWS_AS(SdfNetT<float>{c}, InvalidInput);
+}
