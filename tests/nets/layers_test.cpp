@@ -1,0 +1,228 @@
+#include "nets/layers.h"
+
+#include "gradcheck.h"
+
+#include <doctest/doctest.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+
+using namespace sdfkit;
+using namespace sdfkit::test;
+
+TEST_CASE("conv2d gradients: stride, padding, 1x1 fast path") {
+  for (auto [k, s, p] : {std::tuple{3, 1, 1}, std::tuple{3, 2, 1}, std::tuple{4, 2, 0}, std::tuple{1, 1, 0},
+                         std::tuple{5, 3, 2}}) {
+    CAPTURE(k);
+    CAPTURE(s);
+    CAPTURE(p);
+    Conv2d<double> conv({3, 4, k, s, p, true});
+    check_layer_gradients(conv, random_tensor({2, 3, 9, 8}, 11));
+  }
+}
+
+TEST_CASE("conv2d forward equals a direct convolution loop") {
+  Conv2d<double> conv({2, 3, 3, 2, 1, true});
+  ParamStore<double> store;
+  store.add(conv);
+  store.allocate(false);
+  store.init(5);
+  for (int o = 0; o < 3; ++o) store.values[2 * 9 * 3 + o] = 0.5 * o;  // biases
+  const TensorD x = random_tensor({2, 2, 7, 6}, 3);
+  TensorD y;
+  conv.forward(x, y);
+  REQUIRE(y.shape == Shape({2, 3, 4, 3}));
+  const double* w = store.values.data();
+  for (int n = 0; n < 2; ++n)
+    for (int o = 0; o < 3; ++o)
+      for (int oy = 0; oy < 4; ++oy)
+        for (int ox = 0; ox < 3; ++ox) {
+          double acc = 0.5 * o;
+          for (int c = 0; c < 2; ++c)
+            for (int ki = 0; ki < 3; ++ki)
+              for (int kj = 0; kj < 3; ++kj) {
+                const int iy = oy * 2 - 1 + ki, ix = ox * 2 - 1 + kj;
+                if (iy < 0 || iy >= 7 || ix < 0 || ix >= 6) continue;
+                acc += w[((o * 2 + c) * 3 + ki) * 3 + kj] * x[((n * 2 + c) * 7 + iy) * 6 + ix];
+              }
+          CHECK(y[((n * 3 + o) * 4 + oy) * 3 + ox] == doctest::Approx(acc).epsilon(1e-12));
+        }
+}
+
+TEST_CASE("linear / point MLP gradients on N x P x C") {
+  Linear<double> lin(5, 7);
+  check_layer_gradients(lin, random_tensor({3, 11, 5}, 2));
+  // Many rows: several reduction chunks.
+  Linear<double> big(4, 3);
+  check_layer_gradients(big, random_tensor({2, 700, 4}, 3));
+  auto mlp = make_point_mlp<double>({3, 8, 16, 4}, ActivationKind::ReLU, false);
+  mlp->training(true);
+  check_layer_gradients(*mlp, random_tensor({2, 50, 3}, 4));
+}
+
+TEST_CASE("activations gradients") {
+  for (auto kind : {ActivationKind::ReLU, ActivationKind::LeakyReLU, ActivationKind::Sigmoid, ActivationKind::Tanh}) {
+    Activation<double> a(kind, 0.1);
+    check_layer_gradients(a, random_tensor({2, 3, 5}, 9, -3, 3));
+  }
+  // LeakyReLU values
+  Activation<double> lr(ActivationKind::LeakyReLU, 0.2);
+  TensorD x({1, 2}), y;
+  x[0] = -2;
+  x[1] = 3;
+  lr.forward(x, y);
+  CHECK(y[0] == doctest::Approx(-0.4));
+  CHECK(y[1] == 3);
+}
+
+TEST_CASE("pooling gradients and values") {
+  Pool2d<double> mp(PoolKind::Max, 2, 2), ap(PoolKind::Average, 3, 2);
+  check_layer_gradients(mp, random_tensor({2, 3, 7, 6}, 21));
+  check_layer_gradients(ap, random_tensor({2, 3, 7, 6}, 22));
+  GlobalPool<double> gap(PoolKind::Average), gmp(PoolKind::Max);
+  check_layer_gradients(gap, random_tensor({2, 3, 4, 5}, 23));
+  check_layer_gradients(gmp, random_tensor({2, 3, 4, 5}, 24));
+  TensorD x({1, 1, 2, 2}), y;
+  x.data = {1, 5, -2, 3};
+  mp.forward(x, y);
+  CHECK(y[0] == 5);
+  gap.forward(x, y);
+  CHECK(y[0] == doctest::Approx(7.0 / 4));
+}
+
+TEST_CASE("bilinear resize: gradients, exact corners, constant field preserved") {
+  for (bool align : {true, false}) {
+    BilinearResize<double> up(13, 9, align), down(3, 4, align);
+    check_layer_gradients(up, random_tensor({2, 2, 5, 4}, 31));
+    check_layer_gradients(down, random_tensor({2, 2, 5, 7}, 32));
+    TensorD c({1, 2, 5, 4}, 2.5), y;
+    up.forward(c, y);
+    for (double v : y.data) CHECK(v == doctest::Approx(2.5));
+  }
+  // align_corners, upsampling 5 -> 9 (factor 2 on (in-1)): every source pixel appears exactly.
+  BilinearResize<double> up(9, 9, true);
+  const TensorD x = random_tensor({1, 1, 5, 5}, 33);
+  TensorD y;
+  up.forward(x, y);
+  for (int i = 0; i < 5; ++i)
+    for (int j = 0; j < 5; ++j) CHECK(y[(2 * i) * 9 + 2 * j] == x[i * 5 + j]);
+  // A linear ramp stays a linear ramp (bilinear reproduces affine functions).
+  TensorD ramp({1, 1, 5, 5});
+  for (int i = 0; i < 5; ++i)
+    for (int j = 0; j < 5; ++j) ramp[i * 5 + j] = 2.0 * i - j;
+  up.forward(ramp, y);
+  for (int i = 0; i < 9; ++i)
+    for (int j = 0; j < 9; ++j) CHECK(y[i * 9 + j] == doctest::Approx(2.0 * i / 2 - j / 2.0));
+}
+
+TEST_CASE("sequential conv net gradients (conv, relu, pool, flatten, linear)") {
+  Sequential<double> net;
+  net.emplace<Conv2d<double>>(Conv2dSettings{2, 4, 3, 2, 1, true});
+  net.add(leaky_relu<double>(0.1));
+  net.emplace<Conv2d<double>>(Conv2dSettings{4, 3, 3, 1, 1, true});
+  net.add(relu<double>());
+  net.emplace<Pool2d<double>>(PoolKind::Average, 2, 2);
+  net.emplace<Flatten<double>>();
+  net.emplace<Linear<double>>(3 * 2 * 2, 5);
+  net.training(true);
+  check_layer_gradients(net, random_tensor({3, 2, 9, 9}, 41));
+}
+
+TEST_CASE("concat and broadcast: values and adjoint identity") {
+  const TensorD a = random_tensor({2, 3, 4}, 1), b = random_tensor({2, 3, 2}, 2);
+  TensorD y;
+  concat<double>({&a, &b}, -1, y);
+  REQUIRE(y.shape == Shape({2, 3, 6}));
+  CHECK(y[(1 * 3 + 2) * 6 + 5] == b[(1 * 3 + 2) * 2 + 1]);
+  CHECK(y[(1 * 3 + 2) * 6 + 3] == a[(1 * 3 + 2) * 4 + 3]);
+  // <dy, concat(a, b)> == <da, a> + <db, b> for da, db = concat_backward(dy).
+  const TensorD dy = random_tensor(y.shape, 3);
+  TensorD da, db;
+  concat_backward<double>(dy, {a.shape, b.shape}, 2, {&da, &db});
+  CHECK(dot(dy, y) == doctest::Approx(dot(da, a) + dot(db, b)));
+  // Concat along channels of feature maps.
+  const TensorD m1 = random_tensor({2, 3, 2, 2}, 4), m2 = random_tensor({2, 1, 2, 2}, 5);
+  concat<double>({&m1, &m2}, 1, y);
+  CHECK(y[(1 * 4 + 3) * 4 + 2] == m2[(1 * 1 + 0) * 4 + 2]);
+  // Broadcast: adjoint identity.
+  const TensorD g = random_tensor({2, 5}, 6);
+  broadcast_points(g, 7, y);
+  REQUIRE(y.shape == Shape({2, 7, 5}));
+  const TensorD r = random_tensor(y.shape, 7);
+  TensorD dg;
+  broadcast_points_backward(r, dg);
+  CHECK(dot(r, y) == doctest::Approx(dot(dg, g)));
+}
+
+TEST_CASE("results are identical for 1 and 2 threads") {
+  Sequential<float> net;
+  net.emplace<Conv2d<float>>(Conv2dSettings{3, 8, 3, 2, 1, true});
+  net.add(relu<float>());
+  net.emplace<GlobalPool<float>>();
+  net.emplace<Linear<float>>(8, 4);
+  net.training(true);
+  ParamStore<float> store;
+  store.add(net);
+  store.allocate(true);
+  store.init(3);
+  Linear<float> lin(16, 32);
+  ParamStore<float> s2;
+  s2.add(lin);
+  s2.allocate(true);
+  s2.init(4);
+  const Tensor x = random_tensor({16, 3, 21, 21}, 1).cast<float>();
+  const Tensor pts = random_tensor({4, 1000, 16}, 2).cast<float>();
+  auto run = [&](int threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    Tensor y, dx, yp, dp;
+    store.zero_grad();
+    s2.zero_grad();
+    net.forward(x, y);
+    net.backward(x, y, y, &dx);
+    lin.forward(pts, yp);
+    lin.backward(pts, yp, yp, &dp);
+    std::vector<float> all = y.data;
+    all.insert(all.end(), dx.data.begin(), dx.data.end());
+    all.insert(all.end(), store.grads.begin(), store.grads.end());
+    all.insert(all.end(), s2.grads.begin(), s2.grads.end());
+    return all;
+  };
+  const auto a = run(1), b = run(2);
+  REQUIRE(a.size() == b.size());
+  CHECK(std::equal(a.begin(), a.end(), b.begin()));
+}
+
+TEST_CASE("inference-only store: forward works, backward is a clear error") {
+  Linear<float> lin(3, 2);
+  ParamStore<float> store;
+  store.add(lin);
+  store.allocate(false);
+  store.init(1);
+  CHECK(store.grads.empty());
+  Tensor x({4, 3}, 1.0f), y, dx;
+  lin.forward(x, y);
+  CHECK(y.shape == Shape({4, 2}));
+  CHECK_THROWS_AS(lin.backward(x, y, y, &dx), InvalidInput);
+  Tensor bad({4, 5});
+  CHECK_THROWS_AS(lin.forward(bad, y), InvalidInput);
+}
+
+TEST_CASE("xavier init: range and seed determinism") {
+  Linear<float> a(100, 50), b(100, 50);
+  ParamStore<float> sa, sb;
+  sa.add(a);
+  sb.add(b);
+  sa.allocate(false);
+  sb.allocate(false);
+  sa.init(9);
+  sb.init(9);
+  CHECK(sa.values == sb.values);
+  const double bound = std::sqrt(6.0 / 150);
+  double mx = 0;
+  for (size_t i = 0; i < 5000; ++i) mx = std::max(mx, double(std::abs(sa.values[i])));
+  CHECK(mx <= bound);
+  CHECK(mx > 0.9 * bound);
+  for (size_t i = 5000; i < 5050; ++i) CHECK(sa.values[i] == 0.0f);
+  sb.init(10);
+  CHECK(sa.values != sb.values);
+}
