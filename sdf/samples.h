@@ -35,8 +35,11 @@ struct SampleReport {
 
 /// N x 4 float32 rows (x, y, z, sdf) in the frame of `mesh` (the object frame in a prepared dataset): bins
 /// first (bin 0..3, in generation order), then the uniform share. `sdf` is the grid built from the same mesh
-/// (used to propose candidates and for the sign far from the surface). Deterministic for a seed whatever the
-/// thread count. Throws InvalidInput for bad settings.
+/// (it proposes candidates, and gives the sign of points farther than 0.9 voxel from the surface, where no
+/// surface lies between the point and its nearest voxel). Closer points take the sign of their own winding
+/// number, so `mesh` should be oriented consistently (sdf/orientation.h) as it was for the grid. The stored
+/// sdf is the exact distance of the float32-rounded point. Deterministic for a seed whatever the thread
+/// count. Throws InvalidInput for bad settings or a band too narrow for the bins.
 MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSettings& settings,
                        SampleReport* report = nullptr);
 

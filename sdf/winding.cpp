@@ -33,12 +33,18 @@ WindingNumber::WindingNumber(const Mesh& mesh, double beta) : bvh_(TriangleBvh::
     }
     e.center = area > 0 ? Vec3(weighted / area) : node.box.center();
     e.first.setZero();
+    for (auto& m : e.second) m.setZero();
     double r2 = 0;
     for (int32_t s = node.begin; s < node.end; ++s) {
       const auto& t = bvh_.corners[s];
       const Vec3 an = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]);
       const Vec3 c = (t[0] + t[1] + t[2]) / 3.0;
       e.first += (c - e.center) * an.transpose();
+      // Second moment of the triangle about the centre: A/12 (a a^T + b b^T + c c^T + s s^T), s = a + b + c.
+      const Vec3 a = t[0] - e.center, b = t[1] - e.center, cc = t[2] - e.center, sum = a + b + cc;
+      const Mat3 moment =
+          (a * a.transpose() + b * b.transpose() + cc * cc.transpose() + sum * sum.transpose()) / 12.0;
+      for (int i = 0; i < 3; ++i) e.second[i] += an[i] * moment;  // an = area * unit normal
       for (int k = 0; k < 3; ++k) r2 = std::max(r2, (t[k] - e.center).squaredNorm());
     }
     e.radius2 = beta * beta * r2;
@@ -58,11 +64,24 @@ double WindingNumber::operator()(const Vec3& p) const {
     const Vec3 y = e.center - p;
     const double d2 = y.squaredNorm();
     if (d2 > e.radius2) {
-      // f(y) = y / (4 pi |y|^3); w ~ f(y0) . N + J_f(y0) : M, J_f = (I |y|^2 - 3 y y^T) / (4 pi |y|^5).
+      // w = integral of f(x - p) . n dA with f(y) = y / (4 pi |y|^3), Taylor-expanded about y0 = centre - p:
+      // order 0: f(y0) . N; order 1: J_f(y0) : M with J_f = (I / r^3 - 3 y y^T / r^5) / 4 pi; order 2:
+      // 1/2 d2f_i/dy_j dy_k C_ijk with d2f_i/dy_j dy_k = (-3 (d_ij y_k + d_ik y_j + d_jk y_i) / r^5
+      // + 15 y_i y_j y_k / r^7) / 4 pi.
       const double d = std::sqrt(d2);
       const double inv3 = 1.0 / (d2 * d);
       const double inv5 = inv3 / d2;
-      w += kInv4Pi * (y.dot(e.normal_sum) * inv3 + e.first.trace() * inv3 - 3.0 * y.dot(e.first * y) * inv5);
+      const double inv7 = inv5 / d2;
+      double o2 = 0;
+      {
+        double cubic = 0, lin = 0;
+        for (int i = 0; i < 3; ++i) {
+          cubic += y[i] * y.dot(e.second[i] * y);
+          lin += y[i] * e.second[i].trace() + 2.0 * y.dot(e.second[i].row(i).transpose());
+        }
+        o2 = 0.5 * (-3.0 * lin * inv5 + 15.0 * cubic * inv7);
+      }
+      w += kInv4Pi * (y.dot(e.normal_sum) * inv3 + e.first.trace() * inv3 - 3.0 * y.dot(e.first * y) * inv5 + o2);
       continue;
     }
     if (node.leaf()) {

@@ -1,5 +1,5 @@
 // Generalized winding numbers (Jacobson et al. 2013) with the fast hierarchical evaluation of Barill et al.
-// (2018): a BVH over the triangles, far-field Taylor expansion of each node (dipole + first-order term), exact
+// (2018): a BVH over the triangles, far-field Taylor expansion of each node (up to second order), exact
 // solid angles near the query. w ~ 1 inside a closed outward-oriented surface, 0 outside, and a smooth, robust
 // inside measure for open, self-intersecting and polygon-soup meshes (inside iff w > 0.5).
 #pragma once
@@ -32,6 +32,7 @@ class WindingNumber {
     Vec3 center;       ///< area-weighted centroid of the node's triangles
     Vec3 normal_sum;   ///< sum of area * unit normal (= half cross products)
     Mat3 first;        ///< sum of area * (centroid - center) * normal^T
+    Mat3 second[3];    ///< second[i] = sum of normal_i * (integral over the triangle of delta delta^T)
     double radius2 = 0;  ///< (beta * radius)^2: the far-field threshold, squared
   };
   TriangleBvh bvh_;

@@ -1,0 +1,259 @@
+// `sdfkit prep MESH|DIR|LIST -o OUT`: prepare a DISN-style dataset (sparse SDF grid, samples, ground truth).
+// Thin: gathers the shape list, maps flags onto sdfkit::PrepareSettings, runs sdfkit::prepare_shape per shape
+// (TBB, --jobs), writes manifest.json and prints a summary. See docs/prep.md.
+#include "apps/command.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/random.h"
+#include "sdf/prepare.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <set>
+
+namespace sdfkit::app {
+namespace {
+namespace fs = std::filesystem;
+
+struct ShapeJob {
+  std::string category, shape, path;
+  std::string status = "pending";  // ok | failed
+  std::string reason;
+  bool skipped = false;
+};
+
+bool is_mesh_file(const fs::path& p) {
+  const std::string e = extension_of(p.string());
+  return fs::is_regular_file(p) && (e == "obj" || e == "ply" || e == "off" || e == "stl");
+}
+
+/// Shape id of a mesh below a category folder: its stem when it sits directly in the category, else the name of
+/// the first folder below the category (ShapeNet's <synset>/<id>/models/model_normalized.obj).
+std::string shape_id(const fs::path& category_dir, const fs::path& file) {
+  const fs::path rel = fs::relative(file, category_dir);
+  auto it = rel.begin();
+  if (std::next(it) == rel.end()) return file.stem().string();
+  return it->string();
+}
+
+std::vector<ShapeJob> gather(const std::string& input) {
+  std::vector<ShapeJob> jobs;
+  const fs::path in(input);
+  if (!fs::exists(in)) throw IoError(input + ": no such file or folder");
+  if (fs::is_directory(in)) {
+    std::vector<fs::path> entries{fs::directory_iterator(in), fs::directory_iterator{}};
+    std::sort(entries.begin(), entries.end());
+    for (const auto& e : entries) {
+      if (is_mesh_file(e)) {
+        jobs.push_back({"default", e.stem().string(), e.string()});
+      } else if (fs::is_directory(e)) {
+        std::vector<fs::path> files;
+        for (const auto& f : fs::recursive_directory_iterator(e))
+          if (is_mesh_file(f.path())) files.push_back(f.path());
+        std::sort(files.begin(), files.end());
+        for (const auto& f : files) jobs.push_back({e.filename().string(), shape_id(e, f), f.string()});
+      }
+    }
+    if (jobs.empty()) throw InvalidInput(input + ": no .obj/.ply/.off/.stl meshes in this folder or its sub-folders");
+    return jobs;
+  }
+  const std::string ext = extension_of(input);
+  if (ext == "obj" || ext == "ply" || ext == "off" || ext == "stl") {
+    jobs.push_back({"default", in.stem().string(), input});
+    return jobs;
+  }
+  // A list file: one mesh per line, optionally "category<TAB>path"; '#' starts a comment; relative paths are
+  // relative to the list's folder.
+  std::ifstream list(input);
+  if (!list) throw IoError(input + ": cannot read the list file");
+  std::string line;
+  long number = 0;
+  while (std::getline(list, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::string category = "default", path = line;
+    if (const auto tab = line.find('\t'); tab != std::string::npos) {
+      category = line.substr(0, tab);
+      path = line.substr(tab + 1);
+    }
+    if (category.empty() || category.find('/') != std::string::npos)
+      throw InvalidInput(input + ":" + std::to_string(number) + ": bad category '" + category + "'");
+    fs::path p(path);
+    if (p.is_relative()) p = in.parent_path() / p;
+    jobs.push_back({category, p.stem().string(), p.string()});
+  }
+  if (jobs.empty()) throw InvalidInput(input + ": the list names no meshes (or is not a mesh: unknown extension)");
+  return jobs;
+}
+
+std::function<int()> setup_prep(CLI::App& app) {
+  struct Opts {
+    std::string input, out, shard, gt = "auto";
+    double voxel = 2.4 / 256, band = 0.12, uniform_share = 0.0;
+    long samples = 32768;
+    int views = 0, jobs = 0;
+    uint64_t seed = 0;
+    bool overwrite = false, quiet = false;
+  };
+  auto o = std::make_shared<Opts>();
+  app.add_option("input", o->input,
+                 "a mesh (.obj .ply .off .stl), a folder (categories = sub-folders, shape id = file stem), or a list "
+                 "file (one mesh path per line, optionally 'category<TAB>path')")
+      ->required();
+  app.add_option("-o,--out", o->out, "output dataset folder (<out>/<category>/<shape>/...)")->required();
+  app.add_option("--voxel", o->voxel, "voxel size in object units (default 2.4/256 = DISN's 257^3 grid over [-1.2,1.2]^3)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--band", o->band, "half-width of the stored narrow band in object units (>= 0.1 + offset + 1 voxel)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--samples", o->samples, "training samples per shape, in four equal bins on d = sdf - 0.003")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--uniform-share", o->uniform_share,
+                 "fraction of the samples drawn uniformly in [-1.2,1.2]^3 for far-field supervision")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  app.add_option("--views", o->views, "rendered views per shape into <shape>/views/ (needs the renderer; 0 = none)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--gt", o->gt, "ground truth gt.obj: auto (input if closed and one part, else iso-surface), input, iso")
+      ->check(CLI::IsMember({"auto", "input", "iso"}))
+      ->capture_default_str();
+  app.add_option("-j,--jobs", o->jobs, "shapes prepared in parallel, each using the worker threads (0 = all cores)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--shard", o->shard, "i/n: prepare only shapes whose index modulo n is i (sorted by category/shape)");
+  app.add_option("--seed", o->seed, "sample seed (each shape derives its own stream from seed and category/shape)")
+      ->capture_default_str();
+  app.add_flag("--overwrite", o->overwrite, "redo shapes that are already complete");
+  app.add_flag("-q,--quiet", o->quiet, "print only the summary line");
+  return [o] {
+    if (o->views != 0)
+      throw InvalidInput("--views " + std::to_string(o->views) +
+                         ": rendering views is not available in this build yet (camera/views.h); use --views 0");
+    long shard_i = 0, shard_n = 1;
+    if (!o->shard.empty()) {
+      if (std::sscanf(o->shard.c_str(), "%ld/%ld", &shard_i, &shard_n) != 2 || shard_n < 1 || shard_i < 0 ||
+          shard_i >= shard_n)
+        throw InvalidInput("--shard '" + o->shard + "': expected i/n with 0 <= i < n");
+    }
+    PrepareSettings s;
+    s.grid.voxel_size = o->voxel;
+    s.grid.band = o->band;
+    s.samples.count = o->samples;
+    s.samples.uniform_share = o->uniform_share;
+    s.gt = o->gt == "input" ? GtSource::Input : o->gt == "iso" ? GtSource::IsoSurface : GtSource::Auto;
+    s.overwrite = o->overwrite;
+    const double needed = 0.1 + s.samples.offset + 1.1 * o->voxel;
+    if (o->band < needed)
+      throw InvalidInput("--band " + std::to_string(o->band) + ": must be at least " + std::to_string(needed) +
+                         " (0.1 + 0.003 + 1.1 voxel) so that every sample bin lies inside the band");
+
+    std::vector<ShapeJob> all = gather(o->input);
+    std::sort(all.begin(), all.end(), [](const ShapeJob& a, const ShapeJob& b) {
+      return std::tie(a.category, a.shape, a.path) < std::tie(b.category, b.shape, b.path);
+    });
+    std::vector<ShapeJob> jobs;
+    for (size_t i = 0; i < all.size(); ++i)
+      if (static_cast<long>(i % static_cast<size_t>(shard_n)) == shard_i) jobs.push_back(all[i]);
+    std::set<std::pair<std::string, std::string>> ids;
+    for (auto& j : jobs)
+      if (!ids.insert({j.category, j.shape}).second) {
+        j.status = "failed";
+        j.reason = j.path + ": duplicate shape id '" + j.category + "/" + j.shape + "' (another file has that stem)";
+      }
+
+    const auto t0 = std::chrono::steady_clock::now();
+    ProgressBar bar("prep", static_cast<long>(jobs.size()));
+    std::mutex print;
+    const int threads = o->jobs > 0 ? o->jobs : tbb::this_task_arena::max_concurrency();
+    tbb::task_arena arena(std::max(1, threads));
+    arena.execute([&] {
+      tbb::parallel_for(size_t(0), jobs.size(), [&](size_t i) {
+        ShapeJob& j = jobs[i];
+        if (j.status == "failed") {
+          bar.tick();
+          return;
+        }
+        PrepareSettings mine = s;
+        const std::string key = j.category + "/" + j.shape;
+        mine.samples.seed = Rng::derived(o->seed, std::stoull(fnv1a_hex(key), nullptr, 16)).next();
+        const std::string dir = (fs::path(o->out) / j.category / j.shape).string();
+        try {
+          const PrepareStatus st = prepare_shape(j.path, dir, mine);
+          j.status = "ok";
+          j.skipped = st.skipped;
+          if (!o->quiet && !st.skipped) {
+            std::lock_guard<std::mutex> lock(print);
+            std::printf("%s: %ld voxels, %.1f MB grid, %ld samples, gt %s, %.2f s\n", key.c_str(), st.active_voxels,
+                        st.grid_bytes / 1e6, st.samples.bin_counts[0] + st.samples.bin_counts[1] +
+                                                st.samples.bin_counts[2] + st.samples.bin_counts[3] +
+                                                st.samples.uniform_count,
+                        st.gt_source.c_str(), st.seconds);
+            std::fflush(stdout);
+          }
+        } catch (const std::exception& e) {
+          j.status = "failed";
+          j.reason = e.what();
+          std::lock_guard<std::mutex> lock(print);
+          std::cerr << (stderr_is_tty() ? "\n" : "") << "sdfkit: error: " << e.what() << '\n';
+        }
+        bar.tick();
+      }, tbb::simple_partitioner());
+    });
+    bar.finish();
+
+    long ok = 0, skipped = 0, failed = 0;
+    Json shapes = Json::array();
+    for (const auto& j : jobs) {
+      ok += j.status == "ok" && !j.skipped;
+      skipped += j.skipped;
+      failed += j.status == "failed";
+      Json e = {{"category", j.category}, {"shape", j.shape}, {"source", j.path}, {"status", j.status}};
+      if (!j.reason.empty()) e["reason"] = j.reason;
+      shapes.push_back(e);
+    }
+    Json manifest = {{"tool", "sdfkit prep"},
+                     {"version", SDFKIT_VERSION},
+                     {"input", o->input},
+                     {"shard", {shard_i, shard_n}},
+                     {"settings",
+                      {{"voxel_size", o->voxel},
+                       {"band", o->band},
+                       {"samples", o->samples},
+                       {"sample_offset", s.samples.offset},
+                       {"sample_bins", s.samples.edges},
+                       {"uniform_share", o->uniform_share},
+                       {"views", o->views},
+                       {"gt", o->gt},
+                       {"gt_iso", s.gt_iso},
+                       {"sign", "winding_number"},
+                       {"seed", o->seed}}},
+                     {"counts", {{"shapes", jobs.size()}, {"ok", ok + skipped}, {"failed", failed}}},
+                     {"shapes", shapes}};
+    const std::string name =
+        shard_n == 1 ? "manifest.json" : "manifest." + std::to_string(shard_i) + "of" + std::to_string(shard_n) + ".json";
+    write_json((fs::path(o->out) / name).string(), manifest);
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf("prep: %ld prepared, %ld already complete, %ld failed of %zu shapes in %.1f s -> %s\n", ok, skipped,
+                failed, jobs.size(), secs, (fs::path(o->out) / name).string().c_str());
+    if (failed == 0) return int(kOk);
+    return jobs.size() == 1 ? int(kUserError) : int(kPartialFailure);
+  };
+}
+
+SDFKIT_REGISTER_COMMAND("prep", "prepare a dataset: sparse SDF grid (.vdb), DISN samples (.npy), ground-truth mesh",
+                        setup_prep);
+
+}  // namespace
+}  // namespace sdfkit::app

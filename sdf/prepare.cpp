@@ -1,0 +1,164 @@
+#include "sdf/prepare.h"
+
+#include "core/error.h"
+#include "sdf/normalize.h"
+#include "sdf/orientation.h"
+#include "sdf/sparse_sdf_vdb.h"
+
+#include <openvdb/tools/VolumeToMesh.h>
+
+#include <chrono>
+#include <filesystem>
+
+namespace sdfkit {
+namespace fs = std::filesystem;
+
+namespace {
+
+const char* gt_name(GtSource g) {
+  switch (g) {
+    case GtSource::Auto: return "auto";
+    case GtSource::Input: return "input";
+    case GtSource::IsoSurface: return "iso";
+  }
+  return "auto";
+}
+
+/// Iso-surface of the grid at `iso` (OpenVDB's dual-contouring-free marching: volumeToMesh, no adaptivity),
+/// quads split into triangles, oriented outward (positive volume).
+Mesh iso_surface(const SparseSdf& sdf, double iso) {
+  std::vector<openvdb::Vec3s> points;
+  std::vector<openvdb::Vec3I> tris;
+  std::vector<openvdb::Vec4I> quads;
+  openvdb::tools::volumeToMesh(*vdb_grid(sdf), points, tris, quads, iso, 0.0, /*relaxDisorientedTriangles=*/true);
+  Mesh m;
+  m.V.resize(static_cast<Eigen::Index>(points.size()), 3);
+  for (size_t i = 0; i < points.size(); ++i)
+    m.V.row(static_cast<Eigen::Index>(i)) << points[i].x(), points[i].y(), points[i].z();
+  m.F.resize(static_cast<Eigen::Index>(tris.size() + 2 * quads.size()), 3);
+  Eigen::Index r = 0;
+  for (const auto& t : tris) m.F.row(r++) << int32_t(t[0]), int32_t(t[1]), int32_t(t[2]);
+  for (const auto& q : quads) {
+    m.F.row(r++) << int32_t(q[0]), int32_t(q[1]), int32_t(q[2]);
+    m.F.row(r++) << int32_t(q[0]), int32_t(q[2]), int32_t(q[3]);
+  }
+  double vol = 0;
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    vol += m.V.row(m.F(f, 0)).dot(m.V.row(m.F(f, 1)).cross(m.V.row(m.F(f, 2))));
+  if (vol < 0) m.F.col(1).swap(m.F.col(2));
+  return m;
+}
+
+}  // namespace
+
+ShapeFiles::ShapeFiles(const std::string& shape_dir)
+    : norm((fs::path(shape_dir) / "norm.json").string()),
+      sdf((fs::path(shape_dir) / "sdf.vdb").string()),
+      samples((fs::path(shape_dir) / "samples.npy").string()),
+      gt((fs::path(shape_dir) / "gt.obj").string()) {}
+
+bool shape_is_complete(const std::string& shape_dir) {
+  const ShapeFiles files(shape_dir);
+  return fs::is_regular_file(files.norm) && fs::is_regular_file(files.sdf) && fs::is_regular_file(files.samples) &&
+         fs::is_regular_file(files.gt);
+}
+
+namespace {
+PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const std::string& hash,
+                           const MeshReport* read_report, const std::string& shape_dir, const PrepareSettings& settings,
+                           const ProgressFn& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PrepareStatus st;
+  st.shape_dir = shape_dir;
+  const ShapeFiles files(shape_dir);
+  if (!settings.overwrite && shape_is_complete(shape_dir)) {
+    st.skipped = true;
+    return st;
+  }
+  auto report = [&](double f) {
+    if (progress && !progress(f)) throw Error(source + ": cancelled");
+  };
+  const Mesh mesh = validate_mesh(input, source, &st.mesh);
+  if (read_report) st.mesh = *read_report;  // the reader already cleaned: keep its counts
+  const Normalization norm = unit_sphere_normalization(mesh);
+  OrientationReport orep;
+  const Mesh object = orient_consistently(apply_normalization(mesh, norm), &orep);
+  st.flipped_faces = orep.flipped_faces;
+  st.closed_input = orep.closed && orep.components == 1;
+  report(0.1);
+
+  SparseSdfSettings grid_settings = settings.grid;
+  grid_settings.orient_faces = false;  // done above, shared with the samples
+  const SparseSdf sdf = SparseSdf::from_mesh(object, grid_settings, nullptr,
+                                             [&](double f) { return !progress || progress(0.1 + 0.6 * f); });
+  st.active_voxels = sdf.active_voxel_count();
+  st.grid_bytes = sdf.memory_bytes();
+  report(0.7);
+  const MatrixXfR samples = disn_samples(object, sdf, settings.samples, &st.samples);
+  report(0.85);
+  const bool use_input = settings.gt == GtSource::Input || (settings.gt == GtSource::Auto && st.closed_input);
+  st.gt_source = use_input ? "input" : "iso";
+  Mesh gt = use_input ? object : iso_surface(sdf, settings.gt_iso);
+  gt.colors.resize(0, 3);
+  if (gt.F.rows() == 0) throw InvalidInput(source + ": the iso-surface of the SDF is empty (no inside anywhere)");
+  report(0.95);
+
+  // A previous, possibly different, result must not look complete while the new files are written.
+  std::error_code ec;
+  fs::remove(files.norm, ec);
+  fs::create_directories(shape_dir);
+  sdf.write(files.sdf);
+  write_npy(files.samples, samples);
+  write_mesh(files.gt, gt);
+  Json j = normalization_to_json(norm);
+  j["source"] = source;
+  if (!hash.empty()) j["source_hash"] = hash;
+  j["frame"] = "object = (source - norm[0:3]) / norm[3]";
+  j["mesh"] = {{"vertices", mesh.num_vertices()},
+               {"faces", mesh.num_faces()},
+               {"input_faces", st.mesh.input_faces},
+               {"degenerate_faces_removed", st.mesh.degenerate_faces},
+               {"duplicate_faces_removed", st.mesh.duplicate_faces},
+               {"flipped_faces", orep.flipped_faces},
+               {"parts", orep.components},
+               {"closed_parts", orep.closed_components},
+               {"closed", orep.closed}};
+  j["grid"] = {{"voxel_size", sdf.voxel_size()},
+               {"background", sdf.background()},
+               {"active_voxels", st.active_voxels},
+               {"sign", settings.grid.sign == SignMethod::WindingNumber ? "winding_number" : "none"}};
+  j["samples"] = {{"count", samples.rows()},
+                  {"offset", settings.samples.offset},
+                  {"edges", settings.samples.edges},
+                  {"bin_counts", st.samples.bin_counts},
+                  {"bin_quota", st.samples.bin_quota},
+                  {"uniform", st.samples.uniform_count},
+                  {"redistributed", st.samples.redistributed},
+                  {"seed", settings.samples.seed}};
+  j["gt"] = {{"source", st.gt_source}, {"iso", use_input ? 0.0 : settings.gt_iso}, {"setting", gt_name(settings.gt)}};
+  write_json(files.norm, j);
+  report(1.0);
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return st;
+}
+}  // namespace
+
+PrepareStatus prepare_shape(const std::string& mesh_path, const std::string& shape_dir,
+                            const PrepareSettings& settings, const ProgressFn& progress) {
+  if (!settings.overwrite && shape_is_complete(shape_dir)) {
+    PrepareStatus st;
+    st.skipped = true;
+    st.shape_dir = shape_dir;
+    return st;
+  }
+  MeshReport report;
+  const Mesh mesh = read_mesh(mesh_path, &report);
+  return prepare_impl(mesh, mesh_path, fnv1a_hex(read_file(mesh_path)), &report, shape_dir, settings, progress);
+}
+
+PrepareStatus prepare_mesh(const Mesh& input, const std::string& source, const std::string& shape_dir,
+                           const PrepareSettings& settings, const ProgressFn& progress) {
+  return prepare_impl(input, source, "", nullptr, shape_dir, settings, progress);
+}
+
+}  // namespace sdfkit

@@ -1,0 +1,66 @@
+#include "core/error.h"
+#include "core/files.h"
+#include "core/mesh_io.h"
+#include "sdf/prepare.h"
+#include "test_meshes.h"
+
+#include <doctest/doctest.h>
+
+#include <filesystem>
+
+using namespace sdfkit;
+namespace fs = std::filesystem;
+
+TEST_CASE("prepare: writes the four files, norm.json last; complete shapes are skipped; output is reproducible") {
+  const fs::path dir = fs::temp_directory_path() / "sdfkit_prepare_test";
+  fs::remove_all(dir);
+  const std::string src = (dir / "src" / "box.obj").string();
+  write_mesh(src, make_box(Vec3(1, 2, 3), Vec3(3, 3, 4)));
+  PrepareSettings s;
+  s.samples.count = 2000;
+  const PrepareStatus a = prepare_shape(src, (dir / "a").string(), s);
+  CHECK_FALSE(a.skipped);
+  CHECK(a.gt_source == "input");  // closed, one part
+  CHECK(shape_is_complete((dir / "a").string()));
+  const ShapeFiles fa((dir / "a").string());
+  const Json j = read_json(fa.norm);
+  CHECK(j["norm"][0].get<double>() == doctest::Approx(2.0));
+  CHECK(j["norm"][3].get<double>() == doctest::Approx(0.5 * Vec3(2, 1, 1).norm()));
+  CHECK(j["source_hash"].get<std::string>().size() == 16);
+  const MatrixXfR S = read_npy(fa.samples);
+  CHECK(S.rows() == 2000);
+  CHECK(S.cols() == 4);
+  const Mesh gt = read_mesh(fa.gt);
+  CHECK(gt.V.rowwise().norm().maxCoeff() == doctest::Approx(1.0).epsilon(1e-6));
+
+  CHECK(prepare_shape(src, (dir / "a").string(), s).skipped);
+  const PrepareStatus b = prepare_shape(src, (dir / "b").string(), s);
+  const ShapeFiles fb((dir / "b").string());
+  for (auto [x, y] : {std::pair{fa.norm, fb.norm}, {fa.sdf, fb.sdf}, {fa.samples, fb.samples}, {fa.gt, fb.gt}})
+    CHECK(read_file(x) == read_file(y));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("prepare: an open box gets the iso-surface as ground truth, closed by the winding-number sign") {
+  const fs::path dir = fs::temp_directory_path() / "sdfkit_prepare_open";
+  fs::remove_all(dir);
+  PrepareSettings s;
+  s.samples.count = 1000;
+  const PrepareStatus st = prepare_mesh(test::open_box(), "open box", dir.string(), s);
+  CHECK(st.gt_source == "iso");
+  const Mesh gt = read_mesh(ShapeFiles(dir.string()).gt);
+  // The iso-surface at 0.003 closes the box: its signed volume is about the box's (0.5 / r)^3 in object units.
+  CHECK(signed_volume(gt) > 0.3);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("prepare: bad input names the file and leaves no complete shape") {
+  const fs::path dir = fs::temp_directory_path() / "sdfkit_prepare_bad";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string empty = (dir / "empty.obj").string();
+  write_text_atomic(empty, "");
+  CHECK_THROWS_WITH(prepare_shape(empty, (dir / "out").string()), doctest::Contains("empty.obj"));
+  CHECK_FALSE(shape_is_complete((dir / "out").string()));
+  fs::remove_all(dir);
+}
