@@ -1,6 +1,7 @@
 #include "sdf/sparse_sdf.h"
 
 #include "core/error.h"
+#include "sdf/distance.h"
 #include "sdf/orientation.h"
 #include "sdf/sparse_sdf_vdb.h"
 #include "sdf/winding.h"
@@ -176,6 +177,26 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
   grid->setName("sdf");
   FloatTree& tree = grid->tree();
   const auto background = static_cast<float>(band_voxels * h);
+  progress(0.4);
+
+  // OpenVDB widens its band by passing closest-triangle candidates between neighbouring voxels, which can miss
+  // the true closest triangle (errors up to ~0.6 voxel far from the surface). Its value is the distance to a
+  // real triangle, hence an upper bound: an exact BVH query pruned by it restores exact distances cheaply.
+  {
+    const MeshDistance exact(mesh);
+    std::vector<LeafT*> leaves;
+    leaves.reserve(tree.leafCount());
+    tree.getNodes(leaves);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 4), [&](const auto& range) {
+      for (size_t li = range.begin(); li != range.end(); ++li)
+        for (auto it = leaves[li]->beginValueOn(); it; ++it) {
+          const Coord c = it.getCoord();
+          const double bound = static_cast<double>(*it) * (1.0 + 1e-6) + 1e-9;
+          const ClosestPoint cp = exact.closest(Vec3(c.x() * h, c.y() * h, c.z() * h), bound);
+          if (cp.face >= 0) it.setValue(static_cast<float>(cp.distance));
+        }
+    });
+  }
   progress(0.5);
 
   if (s.sign == SignMethod::WindingNumber) {

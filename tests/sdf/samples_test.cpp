@@ -31,7 +31,8 @@ TEST_CASE("samples: four equal bins on d = sdf - 0.003; every stored sdf is the 
       int bin = d < -0.03 ? 0 : d < 0 ? 1 : d < 0.03 ? 2 : 3;
       if (d >= -0.1 - 1e-6 && d <= 0.1 + 1e-6) ++count[bin];
       if (std::abs(std::abs(v) - MeshDistance::brute_force(c.mesh, p)) > 1e-4) ++bad_distance;
-      if (c.sdf && std::isfinite(c.sdf(p)) && std::abs(c.sdf(p)) > 1e-6 && (c.sdf(p) < 0) != (v < 0)) ++bad_sign;
+      if (c.sdf && std::isfinite(c.sdf(p)) && std::abs(c.sdf(p)) > 2e-3 &&  // polygonised sphere/torus vs closed form
+           (c.sdf(p) < 0) != (v < 0)) ++bad_sign;
       if (c.expected && c.expected(p) != 0 && (v < 0 ? -1 : 1) != c.expected(p)) ++bad_sign;
       // Continuous positions, not grid points.
       if (std::abs(p.x() / sdf.voxel_size() - std::round(p.x() / sdf.voxel_size())) < 1e-6) ++off_grid;

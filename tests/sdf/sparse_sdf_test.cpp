@@ -53,7 +53,7 @@ TEST_CASE("sparse SDF: within half a voxel of the exact SDF in the band, sign as
       }
       if (c.expected) {
         const int e = c.expected(p);
-        if (e != 0 && (v < 0 ? -1 : 1) != e) ++bad_sign;
+        if (e != 0 && v != 0 && (v < 0 ? -1 : 1) != e) ++bad_sign;  // v = 0 on a face: no sign
       }
     });
     CHECK(checked > 1000);
