@@ -142,8 +142,11 @@ struct SdfNetT<T>::Impl {
     int local_maps = 0;  // features of maps [0, local_maps)
     int local_channels = 0;
     Chain<T> point_mlp;
-    std::unique_ptr<Linear<T>> first_p;  // [P, L] -> H1 (bias only when the stream has no global term)
+    std::unique_ptr<Linear<T>> first_p;  // P -> H1 (bias only when the stream has no global term)
     std::unique_ptr<Linear<T>> first_g;  // G -> H1 with bias: the per-shape bias
+    // The first layer's local part W_L L(p) = sum_k W_k sample(map_k, p) = sum_k sample(W_k map_k, p): the 1x1
+    // convolutions W_k run once per image and each point gathers H1 values per map (exact: sampling is linear).
+    std::vector<std::unique_ptr<Conv2d<T>>> local_proj;
     Activation<T> act{ActivationKind::ReLU};
     Chain<T> rest;  // H1 -> ... -> 1
   };
@@ -162,10 +165,10 @@ struct SdfNetT<T>::Workspace::Data {
   std::vector<TensorT<T>> global_acts;
   TensorT<T> points;                           // B x N x 3
   TensorT<T> positions;                        // B x N x 2
-  std::vector<TensorT<T>> feats;               // per map: B x N x c_k
   struct StreamActs {
     std::vector<TensorT<T>> pmlp;
-    TensorT<T> in, z, h, gbias;
+    TensorT<T> z, h, gbias;
+    std::vector<TensorT<T>> proj;  // per map: B x H1 x h_k x w_k
     std::vector<TensorT<T>> rest;
   };
   std::vector<StreamActs> streams;
@@ -228,8 +231,10 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
       prev = w;
     }
     const int h1 = c.decoder[0];
-    s.first_p = std::make_unique<Linear<T>>(prev + s.local_channels, h1, !uses_global);
+    s.first_p = std::make_unique<Linear<T>>(prev, h1, !uses_global);
     if (uses_global) s.first_g = std::make_unique<Linear<T>>(c.global_features, h1, true);
+    for (int k = 0; k < local_maps; ++k)
+      s.local_proj.push_back(std::make_unique<Conv2d<T>>(Conv2dSettings{m.map_channels[k], h1, 1, 1, 0, false}));
     prev = h1;
     for (size_t i = 1; i < c.decoder.size(); ++i) {
       s.rest.template emplace<Linear<T>>(prev, c.decoder[i]);
@@ -260,6 +265,7 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
     s.point_mlp.register_params(store_);
     store_.add(*s.first_p);
     if (s.first_g) store_.add(*s.first_g);
+    for (auto& p : s.local_proj) store_.add(*p);
     s.rest.register_params(store_);
   }
   store_.allocate(false);
@@ -322,9 +328,7 @@ void SdfNetT<T>::forward(const TensorT<T>& images, const std::vector<Camera>& ca
       project_for_sampling<T>(cameras[static_cast<size_t>(b)], p, S, ws.positions.item(b));
     });
   }
-  ws.feats.resize(static_cast<size_t>(m.max_local_maps));
   BilinearSampleSettings bs{S, S};
-  for (int k = 0; k < m.max_local_maps; ++k) bilinear_sample(ws.maps[k], ws.positions, ws.feats[k], bs);
   // Streams.
   ws.streams.resize(m.streams.size());
   pred.assign({B, N}, T(0));
@@ -333,19 +337,19 @@ void SdfNetT<T>::forward(const TensorT<T>& images, const std::vector<Camera>& ca
     auto& a = ws.streams[si];
     s.point_mlp.forward(points, a.pmlp);
     const TensorT<T>& pf = Chain<T>::output(points, a.pmlp);
-    if (s.local_maps > 0) {
-      std::vector<const TensorT<T>*> parts{&pf};
-      for (int k = 0; k < s.local_maps; ++k) parts.push_back(&ws.feats[k]);
-      concat(parts, -1, a.in);
-    } else {
-      a.in = pf;
-    }
-    s.first_p->forward(a.in, a.z);
+    s.first_p->forward(pf, a.z);
     if (s.uses_global) {
       s.first_g->forward(G, a.gbias);
       TensorT<T> bc;
       broadcast_points(a.gbias, N, bc);
       for (int64_t i = 0; i < a.z.size(); ++i) a.z[i] += bc[i];
+    }
+    a.proj.resize(static_cast<size_t>(s.local_maps));
+    for (int k = 0; k < s.local_maps; ++k) {
+      s.local_proj[k]->forward(ws.maps[k], a.proj[k]);
+      TensorT<T> f;
+      bilinear_sample(a.proj[k], ws.positions, f, bs);
+      for (int64_t i = 0; i < a.z.size(); ++i) a.z[i] += f[i];
     }
     s.act.forward(a.z, a.h);
     s.rest.forward(a.h, a.rest);
@@ -364,11 +368,13 @@ void SdfNetT<T>::backward(Workspace& wsp, const TensorT<T>& dpred) const {
   dout.reshape({B, N, 1});
   const TensorT<T>& G = ws.global_acts.back();
   TensorT<T> dG({B, static_cast<int64_t>(config_.global_features)}, T(0));
-  std::vector<TensorT<T>> dfeats(ws.feats.size());
+  const size_t K = m.stages.size();
+  std::vector<TensorT<T>> dmaps(K);
+  BilinearSampleSettings bs{config_.image_size, config_.image_size};
   for (size_t si = 0; si < m.streams.size(); ++si) {
     const auto& s = m.streams[si];
     auto& a = ws.streams[si];
-    TensorT<T> dh, dz, din, dpf;
+    TensorT<T> dh, dz, dpf;
     s.rest.backward(a.h, a.rest, dout, &dh);
     s.act.backward(a.z, a.h, dh, &dz);
     if (s.uses_global) {
@@ -377,31 +383,15 @@ void SdfNetT<T>::backward(Workspace& wsp, const TensorT<T>& dpred) const {
       s.first_g->backward(G, a.gbias, dgb, &dGs);
       add_into(dG, dGs);
     }
-    s.first_p->backward(a.in, a.z, dz, &din);
-    const TensorT<T>& pf = Chain<T>::output(ws.points, a.pmlp);
-    if (s.local_maps > 0) {
-      std::vector<Shape> shapes{pf.shape};
-      std::vector<TensorT<T>> parts(static_cast<size_t>(s.local_maps));
-      std::vector<TensorT<T>*> outs{&dpf};
-      for (int k = 0; k < s.local_maps; ++k) {
-        shapes.push_back(ws.feats[k].shape);
-        outs.push_back(&parts[k]);
-      }
-      concat_backward(din, shapes, -1, outs);
-      for (int k = 0; k < s.local_maps; ++k) add_into(dfeats[k], parts[k]);
-    } else {
-      dpf = std::move(din);
+    for (int k = 0; k < s.local_maps; ++k) {
+      TensorT<T> dproj(a.proj[k].shape, T(0)), dmap;
+      bilinear_sample_backward<T>(a.proj[k], ws.positions, dz, &dproj, static_cast<TensorT<T>*>(nullptr), bs);
+      s.local_proj[k]->backward(ws.maps[k], a.proj[k], dproj, &dmap);
+      add_into(dmaps[k], dmap);
     }
+    const TensorT<T>& pf = Chain<T>::output(ws.points, a.pmlp);
+    s.first_p->backward(pf, a.z, dz, &dpf);
     s.point_mlp.backward(ws.points, a.pmlp, dpf, nullptr);
-  }
-  // Maps: local-feature gradients and the global head's.
-  const size_t K = m.stages.size();
-  std::vector<TensorT<T>> dmaps(K);
-  BilinearSampleSettings bs{config_.image_size, config_.image_size};
-  for (size_t k = 0; k < dfeats.size(); ++k) {
-    if (dfeats[k].empty()) continue;
-    dmaps[k].assign(ws.maps[k].shape, T(0));
-    bilinear_sample_backward<T>(ws.maps[k], ws.positions, dfeats[k], &dmaps[k], static_cast<TensorT<T>*>(nullptr), bs);
   }
   {
     TensorT<T> dlast;
@@ -434,8 +424,13 @@ typename SdfNetT<T>::ShapeCode SdfNetT<T>::encode(const T* image, const Camera& 
   }
   m.global.run(*in, code.global);
   code.bias.resize(m.streams.size());
-  for (size_t si = 0; si < m.streams.size(); ++si)
-    if (m.streams[si].uses_global) m.streams[si].first_g->forward(code.global, code.bias[si]);
+  code.proj.resize(m.streams.size());
+  for (size_t si = 0; si < m.streams.size(); ++si) {
+    const auto& s = m.streams[si];
+    if (s.uses_global) s.first_g->forward(code.global, code.bias[si]);
+    code.proj[si].resize(static_cast<size_t>(s.local_maps));
+    for (int k = 0; k < s.local_maps; ++k) s.local_proj[k]->forward(code.maps[k], code.proj[si][k]);
+  }
   return code;
 }
 
@@ -470,30 +465,25 @@ void SdfNetT<T>::predict(const ShapeCode& code, const PointsF& points, Eigen::Ma
     TensorT<T> pts({1, n, 3});
     for (int64_t i = 0; i < n; ++i)
       for (int d = 0; d < 3; ++d) pts[3 * i + d] = static_cast<T>(p(i, d));
-    std::vector<TensorT<T>> feats(static_cast<size_t>(m.max_local_maps));
+    TensorT<T> pos;
     if (m.max_local_maps > 0) {
-      TensorT<T> pos({1, n, 2});
+      pos.resize({1, n, 2});
       project_for_sampling<T>(code.camera, p, S, pos.ptr());
-      for (int k = 0; k < m.max_local_maps; ++k)
-        bilinear_sample(code.maps[k], pos, feats[k], BilinearSampleSettings{S, S});
     }
     for (size_t si = 0; si < m.streams.size(); ++si) {
       const auto& s = m.streams[si];
-      TensorT<T> pf, in, z, h, out;
+      TensorT<T> pf, z, h, out, f;
       s.point_mlp.run(pts, pf);
-      if (s.local_maps > 0) {
-        std::vector<const TensorT<T>*> parts{&pf};
-        for (int k = 0; k < s.local_maps; ++k) parts.push_back(&feats[k]);
-        concat(parts, -1, in);
-      } else {
-        in = std::move(pf);
-      }
-      s.first_p->forward(in, z);
+      s.first_p->forward(pf, z);
+      const int64_t H = z.dim(-1);
       if (s.uses_global) {
-        const int64_t H = z.dim(-1);
         const T* b = code.bias[si].ptr();
         for (int64_t i = 0; i < n; ++i)
           for (int64_t j = 0; j < H; ++j) z[i * H + j] += b[j];
+      }
+      for (int k = 0; k < s.local_maps; ++k) {
+        bilinear_sample(code.proj[si][k], pos, f, BilinearSampleSettings{S, S});
+        for (int64_t i = 0; i < z.size(); ++i) z[i] += f[i];
       }
       s.act.forward(z, h);
       s.rest.run(h, out);

@@ -5,8 +5,12 @@
 //   ... global feature G = ReLU(Linear(flatten(last map)))
 //   ... local feature L(p) = bilinear samples of the maps at the projection of p through the camera
 //   point feature  P(p) = PointMLP(p), one per stream
-//   global stream: MLP([P_g(p), G]) -> 1          (first layer split: W_p P + (W_g G + b), the second term is a
-//   local stream:  MLP([P_l(p), L(p)]) -> 1        per-shape bias computed once per shape)
+//   global stream: MLP([P_g(p), G]) -> 1
+//   local stream:  MLP([P_l(p), L(p)]) -> 1
+//   The first decoder layer of each stream is split by input: W_p P(p) + (W_g G + b) + sum_k sample(W_k map_k, p).
+//   W_g G + b is a per-shape bias, and because bilinear sampling is linear, W_k L_k(p) = sample(W_k map_k, p):
+//   the 1x1 convolutions W_k map_k run once per image and each point gathers 4 x H1 values per map instead of
+//   multiplying its full local feature (the same in training and inference).
 //   output = global + local (two-stream), or one decoder on [P, G, L(first maps)] (one-stream), or the global
 //   stream alone (global-only); the binary variant has the two-stream architecture and predicts an occupancy
 //   logit (trained with BCE) instead of 10 x (sdf - 0.003).
@@ -41,8 +45,8 @@ struct SdfNetConfig {
   std::vector<int> encoder_channels{16, 32, 64, 96, 128};  ///< one stride-2 3x3 conv stage each (+ReLU)
   int extra_convs = 1;          ///< stride-1 3x3 convs added to every stage after the first
   int global_features = 256;    ///< G
-  std::vector<int> point_mlp{64, 128};  ///< 3 -> ... (ReLU after every layer), per stream
-  std::vector<int> decoder{128, 64};    ///< hidden widths of each stream's decoder, then -> 1
+  std::vector<int> point_mlp{32, 64};   ///< 3 -> ... (ReLU after every layer), per stream
+  std::vector<int> decoder{96, 48};     ///< hidden widths of each stream's decoder, then -> 1
   int one_stream_maps = 3;              ///< one-stream: local features from the first K maps (DISN: 3 of 5)
   float sdf_scale = 10.f;               ///< pred = sdf_scale * (sdf - sdf_offset)
   float sdf_offset = 0.003f;
@@ -103,6 +107,8 @@ class SdfNetT {
     std::vector<TensorT<T>> maps;  ///< 1 x c_k x h_k x w_k
     TensorT<T> global;             ///< 1 x G
     std::vector<TensorT<T>> bias;  ///< per stream: 1 x H1, W_g G + b (the per-shape bias of the first layer)
+    /// per stream, per map used: 1 x H1 x h_k x w_k, the first layer's weights applied to every map pixel
+    std::vector<std::vector<TensorT<T>>> proj;
     Camera camera;
   };
   /// Encode one image (3 x S x S channels-first, values in [0,1]) seen from `camera`.

@@ -1,0 +1,130 @@
+// `sdfkit train sdf --data DIR -o MODEL`: train the DISN-style SDF network on a prepared dataset.
+#include "apps/command.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "nets/sdf_train.h"
+
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+namespace sdfkit::app {
+namespace {
+
+std::vector<int> parse_widths(const std::string& s, const std::string& flag) {
+  std::vector<int> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      size_t used = 0;
+      const int v = std::stoi(item, &used);
+      if (used != item.size() || v <= 0) throw std::invalid_argument(item);
+      out.push_back(v);
+    } catch (const std::exception&) {
+      throw InvalidInput(flag + " '" + s + "': expected positive integers separated by commas");
+    }
+  }
+  if (out.empty()) throw InvalidInput(flag + ": empty list");
+  return out;
+}
+
+std::string join(const std::vector<int>& v) {
+  std::string s;
+  for (size_t i = 0; i < v.size(); ++i) s += (i ? "," : "") + std::to_string(v[i]);
+  return s;
+}
+
+std::function<int()> setup_train_sdf(CLI::App& app) {
+  struct Opts {
+    SdfTrainSettings s;
+    std::string variant = "two-stream";
+    std::string encoder, point_mlp, decoder;
+    double minutes = 0;
+    bool json = false;
+  };
+  auto o = std::make_shared<Opts>();
+  SdfTrainSettings& s = o->s;
+  o->encoder = join(s.net.encoder_channels);
+  o->point_mlp = join(s.net.point_mlp);
+  o->decoder = join(s.net.decoder);
+  app.add_option("--data", s.data, "prepared dataset folder (sdfkit prep ... --views V)")->required();
+  app.add_option("-o,--out", s.out,
+                 "model file to write (checkpoint); MODEL_STEM.loss.csv and MODEL_STEM.loss.svg are written beside it")
+      ->required();
+  app.add_option("--split", s.train_split, "training split: a name (looked up as DATA/NAME.lst or DATA/../NAME.lst) or a list file")
+      ->capture_default_str();
+  app.add_option("--val-split", s.val_split, "validation split (\"\" = the first training shapes)")->capture_default_str();
+  app.add_option("--variant", o->variant, "network variant: two-stream, one-stream, global-only, binary")
+      ->capture_default_str();
+  app.add_option("--steps", s.steps, "optimisation steps")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--batch", s.batch, "(shape, view) items per step")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--points", s.points, "SDF samples per item per step")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--lr", s.lr, "Adam learning rate (beta1 = 0.5 as DISN)")->capture_default_str();
+  app.add_option("--lr-min", s.lr_min, "cosine decay of the learning rate to this value at the last step (0 by default)")
+      ->capture_default_str();
+  app.add_option("--weight-decay", s.weight_decay, "L2 weight decay (coupled, as DISN's regulariser)")
+      ->capture_default_str();
+  app.add_option("--grad-clip", s.grad_clip, "clip the gradient norm to this value (0 = off)")->capture_default_str();
+  app.add_option("--val-every", s.val_every, "validate and write a checkpoint every N steps")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--val-shapes", s.val_shapes, "validation shapes (view 0 of each)")->capture_default_str();
+  app.add_option("--max-shapes", s.max_shapes, "use only the first N training shapes (0 = all)")->capture_default_str();
+  app.add_option("--seed", s.seed, "seed of the initialisation and of every batch")->capture_default_str();
+  app.add_flag("--resume", s.resume, "continue from MODEL when it exists (same settings and seed; bit-exact continuation)");
+  app.add_option("--minutes", o->minutes, "stop after this many minutes of training, saving the model (0 = no limit)")
+      ->capture_default_str();
+  app.add_option("--encoder", o->encoder, "encoder stage channels (one stride-2 stage each)")->capture_default_str();
+  app.add_option("--extra-convs", s.net.extra_convs, "stride-1 convolutions added to every stage after the first")
+      ->capture_default_str();
+  app.add_option("--global", s.net.global_features, "global feature size")->capture_default_str();
+  app.add_option("--point-mlp", o->point_mlp, "point MLP widths (per stream)")->capture_default_str();
+  app.add_option("--decoder", o->decoder, "decoder hidden widths (per stream)")->capture_default_str();
+  app.add_flag("--json", o->json, "print the result as JSON on stdout");
+  return [o] {
+    SdfTrainSettings& s = o->s;
+    s.net.variant = sdf_variant_from_string(o->variant);
+    s.net.encoder_channels = parse_widths(o->encoder, "--encoder");
+    s.net.point_mlp = parse_widths(o->point_mlp, "--point-mlp");
+    s.net.decoder = parse_widths(o->decoder, "--decoder");
+    s.time_limit_seconds = o->minutes * 60.0;
+    ProgressBar bar("train sdf", s.steps);
+    const bool tty = stderr_is_tty();
+    const SdfTrainResult r = train_sdf(s, [&](const SdfTrainEvent& e) {
+      bar.update(e.step);
+      if (e.validated) {
+        char line[256];
+        std::snprintf(line, sizeof line,
+                      "step %ld/%ld  loss %.4f  lr %.2e  val: loss %.4f sign-acc %.4f sample-IoU %.4f  (%.0f s)", e.step,
+                      e.total, e.loss, e.lr, e.val.loss, e.val.sign_accuracy, e.val.sample_iou, e.seconds);
+        std::fprintf(stderr, "%s%s\n", tty ? "\r\033[K" : "", line);
+      }
+    });
+    bar.finish();
+    if (o->json) {
+      std::cout << Json{{"model", r.model},
+                        {"csv", r.csv},
+                        {"plot", r.plot},
+                        {"steps", r.steps},
+                        {"start_step", r.start_step},
+                        {"seconds", r.seconds},
+                        {"train_loss", r.final_loss},
+                        {"val", {{"loss", r.val.loss}, {"sign_accuracy", r.val.sign_accuracy},
+                                 {"sample_iou", r.val.sample_iou}, {"shapes", r.val.shapes}}}}
+                       .dump(2)
+                << '\n';
+    } else {
+      std::cout << "trained " << r.steps - r.start_step << " steps (to step " << r.steps << ") in " << r.seconds
+                << " s; validation sign accuracy " << r.val.sign_accuracy << ", sample IoU " << r.val.sample_iou
+                << "\nmodel: " << r.model << "\nloss curve: " << r.csv << ", " << r.plot << '\n';
+    }
+    return int(kOk);
+  };
+}
+
+SDFKIT_REGISTER_COMMAND("train sdf", "train the SDF network (DISN two-stream and its ablations) on a prepared dataset",
+                        setup_train_sdf);
+
+}  // namespace
+}  // namespace sdfkit::app

@@ -1,0 +1,364 @@
+#include "nets/sdf_train.h"
+
+#include "core/error.h"
+#include "core/random.h"
+#include "nets/checkpoint.h"
+#include "nets/loss.h"
+#include "nets/optim.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace sdfkit {
+
+namespace {
+
+constexpr int kLogEvery = 25;  // CSV rows: mean training loss over this many steps
+
+std::string stem_path(const std::string& model) {
+  fs::path p(model);
+  return (p.parent_path() / p.stem()).string();
+}
+
+/// Loss of the variant (value; gradient into grad when not null).
+double variant_loss(const SdfNetConfig& c, const Tensor& pred, const Tensor& sdf, Tensor* grad) {
+  if (c.variant == SdfVariant::Binary) {
+    Tensor target(sdf.shape);
+    for (int64_t i = 0; i < sdf.size(); ++i) target[i] = sdf[i] - c.sdf_offset < 0.f ? 1.f : 0.f;
+    return bce_with_logits_loss<float>(pred, target, grad);
+  }
+  SdfLossSettings ls;
+  ls.scale = c.sdf_scale;
+  ls.offset = c.sdf_offset;
+  return sdf_weighted_l1_loss<float>(pred, sdf, grad, ls);
+}
+
+bool predicted_inside(const SdfNetConfig& c, float pred) {
+  return c.variant == SdfVariant::Binary ? pred > 0.f : pred < 0.f;
+}
+
+std::vector<std::vector<double>> read_csv_numbers(const std::string& path, std::vector<std::string>* header) {
+  std::vector<std::vector<double>> rows;
+  std::ifstream in(path);
+  if (!in) return rows;
+  std::string line;
+  bool first = true;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) cells.push_back(cell);
+    if (first) {
+      first = false;
+      if (header) *header = cells;
+      continue;
+    }
+    std::vector<double> r;
+    for (const auto& c : cells) r.push_back(c.empty() ? std::nan("") : std::atof(c.c_str()));
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
+std::string format_csv(const std::vector<std::string>& header, const std::vector<std::vector<double>>& rows) {
+  std::ostringstream o;
+  for (size_t i = 0; i < header.size(); ++i) o << (i ? "," : "") << header[i];
+  o << '\n';
+  o << std::setprecision(7);
+  for (const auto& r : rows) {
+    for (size_t i = 0; i < r.size(); ++i) {
+      if (i) o << ',';
+      if (std::isfinite(r[i])) o << r[i];
+    }
+    o << '\n';
+  }
+  return o.str();
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------------------------ model files
+void save_sdf_model(const std::string& path, const SdfNet& net, const Json& training) {
+  Checkpoint ck;
+  ck.header["kind"] = "sdfkit-sdf-net";
+  ck.header["config"] = net.config().to_json();
+  ck.header["architecture"] = net.params().architecture();
+  ck.header["n_params"] = net.n_params();
+  ck.header["training"] = training;
+  ck.set_block("params", net.params().values);
+  save_checkpoint(path, ck);
+}
+
+std::unique_ptr<SdfNet> load_sdf_model(const std::string& path, Json* training) {
+  const Checkpoint ck = load_checkpoint(path);
+  if (ck.header.value("kind", std::string()) != "sdfkit-sdf-net")
+    throw IoError(path + ": not an SDF network model (header kind is '" + ck.header.value("kind", std::string()) +
+                  "')");
+  if (!ck.header.contains("config")) throw IoError(path + ": SDF model without a configuration");
+  SdfNetConfig config;
+  try {
+    config = SdfNetConfig::from_json(ck.header.at("config"));
+  } catch (const IoError& e) {
+    throw IoError(path + ": " + e.what());
+  }
+  auto net = std::make_unique<SdfNet>(config);
+  const auto& p = ck.block("params", static_cast<long>(net->n_params()));
+  std::copy(p.begin(), p.end(), net->params().values.begin());
+  if (training) *training = ck.header.value("training", Json::object());
+  return net;
+}
+
+// ------------------------------------------------------------------------------------------------ validation
+SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, int points, uint64_t seed) {
+  SdfValidation v;
+  const SdfNetConfig& c = net.config();
+  const int n_shapes = std::min<int>(shapes, static_cast<int>(data.size()));
+  double loss = 0;
+  long right = 0, total = 0, inter = 0, uni = 0;
+  for (int s = 0; s < n_shapes; ++s) {
+    PointsF pts;
+    Eigen::VectorXf sdf;
+    draw_samples(data.samples(s), points, Rng::mix(seed + 77 * static_cast<uint64_t>(s)), pts, sdf);
+    const Eigen::VectorXf img = data.input(s, 0);
+    const auto code = net.encode(img.data(), data.camera(s, 0));
+    Eigen::VectorXf pred;
+    net.predict(code, pts, pred);
+    Tensor tp({1, pred.size()}), ts({1, sdf.size()});
+    std::copy(pred.data(), pred.data() + pred.size(), tp.ptr());
+    std::copy(sdf.data(), sdf.data() + sdf.size(), ts.ptr());
+    loss += variant_loss(c, tp, ts, nullptr);
+    for (Eigen::Index i = 0; i < pred.size(); ++i) {
+      const bool gt_in = sdf[i] - c.sdf_offset < 0.f, pr_in = predicted_inside(c, pred[i]);
+      right += gt_in == pr_in;
+      inter += gt_in && pr_in;
+      uni += gt_in || pr_in;
+      ++total;
+    }
+  }
+  v.shapes = n_shapes;
+  v.loss = n_shapes ? loss / n_shapes : 0;
+  v.sign_accuracy = total ? static_cast<double>(right) / total : 0;
+  v.sample_iou = uni ? static_cast<double>(inter) / uni : 1.0;
+  return v;
+}
+
+// ------------------------------------------------------------------------------------------------ plot
+void write_loss_plot_svg(const std::string& path, const std::vector<std::vector<double>>& rows,
+                         const std::vector<std::string>& names, const std::vector<int>& columns,
+                         const std::string& title) {
+  const double W = 720, H = 420, L = 70, R = 20, T = 40, Bm = 50;
+  double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+  for (const auto& r : rows) {
+    if (r.empty() || !std::isfinite(r[0])) continue;
+    x0 = std::min(x0, r[0]);
+    x1 = std::max(x1, r[0]);
+    for (int c : columns)
+      if (c < static_cast<int>(r.size()) && std::isfinite(r[c]) && r[c] > 0) {
+        y0 = std::min(y0, std::log10(r[c]));
+        y1 = std::max(y1, std::log10(r[c]));
+      }
+  }
+  if (!(x1 > x0)) x1 = x0 + 1;
+  if (!(y1 > y0)) {
+    y0 = std::isfinite(y0) && y0 < 1e299 ? y0 - 0.5 : -1;
+    y1 = y0 + 1;
+  }
+  y0 = std::floor(y0 * 4) / 4;
+  y1 = std::ceil(y1 * 4) / 4;
+  auto X = [&](double x) { return L + (x - x0) / (x1 - x0) * (W - L - R); };
+  auto Y = [&](double ly) { return H - Bm - (ly - y0) / (y1 - y0) * (H - T - Bm); };
+  const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd"};
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(1);
+  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" font-family=\"sans-serif\" "
+    << "font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+  o << "<text x=\"" << W / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << title << "</text>\n";
+  o << "<rect x=\"" << L << "\" y=\"" << T << "\" width=\"" << W - L - R << "\" height=\"" << H - T - Bm
+    << "\" fill=\"none\" stroke=\"#444\"/>\n";
+  for (double ly = y0; ly <= y1 + 1e-9; ly += 0.25) {
+    o << "<line x1=\"" << L << "\" x2=\"" << W - R << "\" y1=\"" << Y(ly) << "\" y2=\"" << Y(ly)
+      << "\" stroke=\"#ddd\"/>\n<text x=\"" << L - 6 << "\" y=\"" << Y(ly) + 4 << "\" text-anchor=\"end\">"
+      << std::setprecision(3) << std::pow(10.0, ly) << std::setprecision(1) << "</text>\n";
+  }
+  for (int i = 0; i <= 5; ++i) {
+    const double x = x0 + (x1 - x0) * i / 5;
+    o << "<text x=\"" << X(x) << "\" y=\"" << H - Bm + 18 << "\" text-anchor=\"middle\">" << std::setprecision(0) << x
+      << std::setprecision(1) << "</text>\n";
+  }
+  o << "<text x=\"" << (L + W - R) / 2 << "\" y=\"" << H - 12 << "\" text-anchor=\"middle\">step</text>\n";
+  for (size_t k = 0; k < columns.size(); ++k) {
+    const int c = columns[k];
+    o << "<polyline fill=\"none\" stroke-width=\"1.5\" stroke=\"" << colours[k % 4] << "\" points=\"";
+    for (const auto& r : rows)
+      if (c < static_cast<int>(r.size()) && std::isfinite(r[c]) && r[c] > 0 && std::isfinite(r[0]))
+        o << X(r[0]) << ',' << Y(std::log10(r[c])) << ' ';
+    o << "\"/>\n<text x=\"" << W - R - 8 << "\" y=\"" << T + 16 + 16 * k << "\" text-anchor=\"end\" fill=\""
+      << colours[k % 4] << "\">" << (c < static_cast<int>(names.size()) ? names[c] : "") << "</text>\n";
+  }
+  o << "</svg>\n";
+  write_text_atomic(path, o.str());
+}
+
+// ------------------------------------------------------------------------------------------------ training
+SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(const SdfTrainEvent&)>& on_event) {
+  require(!st.out.empty(), "train sdf: an output model path is required");
+  require(st.steps > 0 && st.batch > 0 && st.points > 0, "train sdf: steps, batch and points must be positive");
+  require(st.lr > 0 && std::isfinite(st.lr), "train sdf: learning rate must be positive");
+  require(st.net.image_size == kNetImageSize,
+          "train sdf: the dataset reader produces " + std::to_string(kNetImageSize) + " px inputs");
+  const auto t_start = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
+
+  DatasetSettings ds;
+  ds.root = st.data;
+  ds.split = st.train_split;
+  ds.max_shapes = st.max_shapes;
+  Dataset train(ds);
+  std::unique_ptr<Dataset> val_owned;
+  const Dataset* val = &train;
+  if (!st.val_split.empty()) {
+    DatasetSettings vs = ds;
+    vs.split = st.val_split;
+    vs.max_shapes = st.val_shapes;
+    val_owned = std::make_unique<Dataset>(vs);
+    val = val_owned.get();
+  }
+
+  SdfNet net(st.net);
+  net.allocate_grads(true);
+  net.init(st.seed);
+  OptimizerSettings os;
+  os.beta1 = 0.5;
+  os.weight_decay = st.weight_decay;
+  Optimizer opt(os, net.n_params());
+  LrSchedule sched;
+  sched.kind = st.lr_min < st.lr ? LrSchedule::Kind::Cosine : LrSchedule::Kind::Constant;
+  sched.base = st.lr;
+  sched.min_lr = st.lr_min;
+  sched.total_steps = st.steps;
+
+  SdfTrainResult res;
+  res.model = st.out;
+  res.csv = stem_path(st.out) + ".loss.csv";
+  res.plot = stem_path(st.out) + ".loss.svg";
+  const std::vector<std::string> header = {"step", "train_loss", "lr", "seconds", "val_loss", "val_sign_accuracy",
+                                           "val_sample_iou"};
+  std::vector<std::vector<double>> rows;
+  long step = 0;
+  double seconds_before = 0;  // training time of earlier (resumed) runs
+
+  const Json train_json = {{"data", st.data},          {"train_split", st.train_split}, {"batch", st.batch},
+                           {"points", st.points},      {"lr", st.lr},                   {"lr_min", st.lr_min},
+                           {"weight_decay", st.weight_decay}, {"grad_clip", st.grad_clip},
+                           {"seed", st.seed},          {"max_shapes", st.max_shapes},   {"steps", st.steps},
+                           {"train_shapes", train.size()}};
+  if (st.resume && fs::exists(st.out)) {
+    const Checkpoint ck = load_checkpoint(st.out);
+    require_header_match(ck, "config", st.net.to_json(), st.out);
+    const auto& p = ck.block("params", static_cast<long>(net.n_params()));
+    std::copy(p.begin(), p.end(), net.params().values.begin());
+    ck.get_optimizer(opt);
+    const Json& tr = ck.header.at("training");
+    step = tr.at("step").get<long>();
+    seconds_before = tr.value("seconds", 0.0);
+    if (tr.value("seed", st.seed) != st.seed)
+      throw InvalidInput(st.out + ": checkpoint was trained with seed " + std::to_string(tr.value("seed", 0ULL)) +
+                         "; resume with the same --seed");
+    std::vector<std::string> h;
+    for (auto& r : read_csv_numbers(res.csv, &h))
+      if (!r.empty() && r[0] <= static_cast<double>(step)) rows.push_back(std::move(r));
+  }
+  res.start_step = step;
+
+  BatchSettings bs;
+  bs.batch_size = st.batch;
+  bs.points_per_shape = st.points;
+  bs.seed = st.seed;
+  BatchSampler sampler(train, bs);
+
+  auto save = [&](long at_step, const SdfValidation& v) {
+    Checkpoint ck;
+    ck.header["kind"] = "sdfkit-sdf-net";
+    ck.header["config"] = st.net.to_json();
+    ck.header["architecture"] = net.params().architecture();
+    ck.header["n_params"] = net.n_params();
+    Json tr = train_json;
+    tr["step"] = at_step;
+    tr["seconds"] = seconds_before + elapsed();
+    tr["val"] = {{"loss", v.loss}, {"sign_accuracy", v.sign_accuracy}, {"sample_iou", v.sample_iou},
+                 {"shapes", v.shapes}};
+    ck.header["training"] = tr;
+    ck.set_block("params", net.params().values);
+    ck.put_optimizer(opt);
+    save_checkpoint(st.out, ck);
+    write_text_atomic(res.csv, format_csv(header, rows));
+    write_loss_plot_svg(res.plot, rows, header, {1, 4}, "SDF network: training and validation loss");
+  };
+
+  SdfNet::Workspace ws;
+  Tensor images, points, sdf, pred, dpred;
+  double interval_loss = 0;
+  int interval_n = 0;
+  const int S = kNetImageSize;
+  while (step < st.steps) {
+    const SdfBatch b = sampler.batch(step);
+    const int64_t B = b.size(), N = b.points_per_item;
+    images.resize({B, 3, S, S});
+    std::copy(b.images.data(), b.images.data() + b.images.size(), images.ptr());
+    points.resize({B, N, 3});
+    std::copy(b.points.data(), b.points.data() + b.points.size(), points.ptr());
+    sdf.resize({B, N});
+    std::copy(b.sdf.data(), b.sdf.data() + b.sdf.size(), sdf.ptr());
+    net.forward(images, b.cameras, points, ws, pred);
+    const double loss = variant_loss(st.net, pred, sdf, &dpred);
+    if (!std::isfinite(loss)) throw Error("train sdf: loss became non-finite at step " + std::to_string(step));
+    net.params().zero_grad();
+    net.backward(ws, dpred);
+    if (st.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.n_params(), st.grad_clip);
+    const double lr = sched.at(step);
+    opt.step(net.params().values.data(), net.params().grads.data(), lr);
+    ++step;
+    interval_loss += loss;
+    ++interval_n;
+    const bool out_of_time = st.time_limit_seconds > 0 && elapsed() >= st.time_limit_seconds;
+    const bool do_val = step % std::max(1, st.val_every) == 0 || step == st.steps || out_of_time;
+    SdfTrainEvent ev;
+    ev.step = step;
+    ev.total = st.steps;
+    ev.loss = loss;
+    ev.lr = lr;
+    ev.seconds = seconds_before + elapsed();
+    if (step % kLogEvery == 0 || do_val) {
+      std::vector<double> row = {static_cast<double>(step), interval_loss / interval_n, lr, ev.seconds,
+                                 std::nan(""), std::nan(""), std::nan("")};
+      res.final_loss = interval_loss / interval_n;
+      interval_loss = 0;
+      interval_n = 0;
+      if (do_val) {
+        res.val = validate_sdf(net, *val, st.val_shapes, st.val_points, st.seed + 1);
+        row[4] = res.val.loss;
+        row[5] = res.val.sign_accuracy;
+        row[6] = res.val.sample_iou;
+        ev.validated = true;
+        ev.val = res.val;
+      }
+      rows.push_back(row);
+      if (do_val) save(step, res.val);
+    }
+    if (on_event) on_event(ev);
+    if (out_of_time) break;
+  }
+  res.steps = step;
+  res.seconds = elapsed();
+  return res;
+}
+
+}  // namespace sdfkit
