@@ -86,6 +86,14 @@ struct TensorT {
   }
 };
 
+/// TensorT<T> in a position that does not take part in template deduction (so `nullptr` can be passed).
+template <typename T>
+struct NoDeduce {
+  using type = T;
+};
+template <typename T>
+using TensorOut = typename NoDeduce<TensorT<T>>::type*;
+
 using Tensor = TensorT<float>;
 using TensorD = TensorT<double>;
 

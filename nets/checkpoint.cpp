@@ -1,0 +1,171 @@
+#include "nets/checkpoint.h"
+
+#include "core/error.h"
+
+#include <cmath>
+#include <cstring>
+
+namespace sdfkit {
+namespace {
+
+constexpr char kMagic[8] = {'S', 'D', 'F', 'K', 'I', 'T', 'C', 'K'};
+constexpr size_t kPrefix = 8 + 4 + 8;
+
+uint64_t fnv1a(const char* p, size_t n) {
+  uint64_t h = 0xcbf29ce484222325ULL;
+  for (size_t i = 0; i < n; ++i) {
+    h ^= static_cast<unsigned char>(p[i]);
+    h *= 0x100000001b3ULL;
+  }
+  return h;
+}
+
+template <typename U>
+void put(std::string& s, U v) {
+  char b[sizeof(U)];
+  std::memcpy(b, &v, sizeof(U));  // x86-64 / aarch64: little endian
+  s.append(b, sizeof(U));
+}
+
+template <typename U>
+U get(const std::string& s, size_t at) {
+  U v;
+  std::memcpy(&v, s.data() + at, sizeof(U));
+  return v;
+}
+
+}  // namespace
+
+const std::vector<float>& Checkpoint::block(const std::string& name, long expected_count) const {
+  for (const auto& b : blocks)
+    if (b.first == name) {
+      if (expected_count >= 0 && static_cast<long>(b.second.size()) != expected_count)
+        throw IoError("checkpoint block '" + name + "' has " + std::to_string(b.second.size()) +
+                      " values, expected " + std::to_string(expected_count));
+      return b.second;
+    }
+  throw IoError("checkpoint has no block '" + name + "'");
+}
+
+bool Checkpoint::has_block(const std::string& name) const {
+  for (const auto& b : blocks)
+    if (b.first == name) return true;
+  return false;
+}
+
+void Checkpoint::set_block(const std::string& name, std::vector<float> values) {
+  for (auto& b : blocks)
+    if (b.first == name) {
+      b.second = std::move(values);
+      return;
+    }
+  blocks.emplace_back(name, std::move(values));
+}
+
+void Checkpoint::put_optimizer(const Optimizer& opt) {
+  StateBlob s = opt.serialize();
+  header["optimizer"] = s.meta;
+  for (auto& b : s.buffers) set_block(b.first, std::move(b.second));
+}
+
+void Checkpoint::get_optimizer(Optimizer& opt) const {
+  if (!header.contains("optimizer")) throw IoError("checkpoint has no optimizer state");
+  StateBlob s;
+  s.meta = header.at("optimizer");
+  for (const auto& b : blocks)
+    if (b.first.rfind("opt_", 0) == 0) s.buffers.push_back(b);
+  opt.deserialize(s);
+}
+
+void save_checkpoint(const std::string& path, const Checkpoint& ck) {
+  Json header = ck.header;
+  Json table = Json::array();
+  size_t offset = 0;
+  for (const auto& b : ck.blocks) {
+    for (const float v : b.second)
+      require(std::isfinite(v), path + ": refusing to write a checkpoint with non-finite values in block '" +
+                                    b.first + "'");
+    table.push_back({{"name", b.first}, {"offset", offset}, {"count", b.second.size()}});
+    offset += b.second.size();
+  }
+  header["blocks"] = table;
+  header["format"] = "sdfkit-checkpoint";
+  header["version"] = kCheckpointVersion;
+  const std::string text = header.dump();
+  std::string bytes;
+  bytes.reserve(kPrefix + text.size() + offset * 4 + 8);
+  bytes.append(kMagic, 8);
+  put<uint32_t>(bytes, kCheckpointVersion);
+  put<uint64_t>(bytes, text.size());
+  bytes += text;
+  for (const auto& b : ck.blocks)
+    bytes.append(reinterpret_cast<const char*>(b.second.data()), b.second.size() * sizeof(float));
+  put<uint64_t>(bytes, fnv1a(bytes.data(), bytes.size()));
+  write_file_atomic(path, [&](std::ostream& o) { o.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
+}
+
+Checkpoint load_checkpoint(const std::string& path) {
+  const std::string bytes = read_file(path);
+  if (bytes.size() < kPrefix + 8 || std::memcmp(bytes.data(), kMagic, 8) != 0)
+    throw IoError(path + ": not an sdfkit checkpoint (bad magic or too short)");
+  const uint32_t version = get<uint32_t>(bytes, 8);
+  if (version != kCheckpointVersion)
+    throw IoError(path + ": checkpoint format version " + std::to_string(version) + ", this build reads " +
+                  std::to_string(kCheckpointVersion));
+  const uint64_t hlen = get<uint64_t>(bytes, 12);
+  if (hlen > bytes.size() - kPrefix - 8)
+    throw IoError(path + ": truncated checkpoint (header length " + std::to_string(hlen) + " exceeds the file)");
+  const size_t payload = bytes.size() - kPrefix - 8 - hlen;
+  const uint64_t stored = get<uint64_t>(bytes, bytes.size() - 8);
+  const uint64_t actual = fnv1a(bytes.data(), bytes.size() - 8);
+  Json header;
+  try {
+    header = Json::parse(bytes.substr(kPrefix, hlen));
+  } catch (const Json::exception&) {
+    throw IoError(path + (stored != actual ? ": corrupt or truncated checkpoint (checksum mismatch)"
+                                           : ": checkpoint header is not valid JSON"));
+  }
+  size_t total = 0;
+  try {
+    for (const auto& b : header.at("blocks")) total += b.at("count").get<size_t>();
+  } catch (const Json::exception&) {
+    throw IoError(path + ": checkpoint header has no valid block table");
+  }
+  if (payload % 4 != 0 || payload / 4 < total)
+    throw IoError(path + ": truncated checkpoint (" + std::to_string(payload) + " payload bytes, the header lists " +
+                  std::to_string(total * 4) + ")");
+  if (payload / 4 != total)
+    throw IoError(path + ": checkpoint payload size " + std::to_string(payload) + " does not match the header");
+  if (stored != actual) throw IoError(path + ": corrupt checkpoint (checksum mismatch)");
+  Checkpoint ck;
+  const char* data = bytes.data() + kPrefix + hlen;
+  for (const auto& b : header.at("blocks")) {
+    const size_t off = b.at("offset").get<size_t>(), count = b.at("count").get<size_t>();
+    if (off + count > total) throw IoError(path + ": checkpoint block table is inconsistent");
+    std::vector<float> v(count);
+    std::memcpy(v.data(), data + off * 4, count * 4);
+    ck.blocks.emplace_back(b.at("name").get<std::string>(), std::move(v));
+  }
+  header.erase("blocks");
+  ck.header = std::move(header);
+  return ck;
+}
+
+void require_header_match(const Checkpoint& ck, const std::string& key, const Json& expected, const std::string& path) {
+  if (!ck.header.contains(key)) throw InvalidInput(path + ": checkpoint has no '" + key + "' entry");
+  const Json diff = Json::diff(ck.header.at(key), expected);
+  if (!diff.empty()) {
+    const Json& first = diff.at(0);
+    const std::string where = first.value("path", std::string(""));
+    std::string have = "nothing";
+    try {
+      have = ck.header.at(key).at(Json::json_pointer(where)).dump();
+    } catch (const Json::exception&) {
+    }
+    const std::string want = first.contains("value") ? first.at("value").dump() : std::string("nothing");
+    throw InvalidInput(path + ": checkpoint " + key + " does not match this model (first difference at " + key +
+                       where + ": file has " + have + ", expected " + want + ")");
+  }
+}
+
+}  // namespace sdfkit
