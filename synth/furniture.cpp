@@ -84,13 +84,19 @@ SynthShape make_chair(Gen& g) {
     const int style = g.n(0, 2);
     const double splay = g.p(0.4) ? g.u(0.0, 0.05) : 0.0;
     const auto feet = add_four_legs(g, style, hx, hz, H - T * 0.3, post, splay, frame_c);
-    if (g.p(0.5)) add_stretchers(g, feet, g.u(0.08, 0.25), g.u(0.012, 0.022), g.p(0.5), frame_c);
+    if (g.p(0.5)) {
+      const double y = g.u(0.08, 0.25);
+      const double size = g.u(0.012, 0.022);
+      const bool h = g.p(0.5);
+      add_stretchers(g, feet, y, size, h, frame_c);
+    }
     back_posts_from_legs = style == 0 && g.p(0.5);
   } else if (base == 1) {
     const Vec3f dark = g.pick(palette::dark);
     const double col_r = g.u(0.02, 0.035), foot_y = g.u(0.05, 0.08);
     g.add("column", make_cylinder(Vec3(0, foot_y, 0), Vec3(0, H - T * 0.5, 0), col_r, 14), frame_c);
-    g.add("mechanism", make_box_part(Vec3(0, H - T - 0.02, 0), Vec3(g.u(0.06, 0.12), 0.025, g.u(0.06, 0.12))), dark);
+    const double mx = g.u(0.06, 0.12), mz = g.u(0.06, 0.12);
+    g.add("mechanism", make_box_part(Vec3(0, H - T - 0.02, 0), Vec3(mx, 0.025, mz)), dark);
     const int arms = g.n(4, 5);
     const double reach = g.u(0.24, 0.34), phase = g.u(0, 2 * M_PI);
     for (int a = 0; a < arms; ++a) {
@@ -249,7 +255,12 @@ SynthShape make_table(Gen& g) {
         g.add("drawer_knob", make_ellipsoid(Vec3(0, y, hz + at / 2 + 0.01), Vec3(0.015, 0.015, 0.012), Mat3::Identity(), 3),
               g.pick(palette::metal));
     }
-    if (g.p(0.35)) add_stretchers(g, feet, g.u(0.08, 0.25), g.u(0.015, 0.03), g.p(0.5), leg_c);
+    if (g.p(0.35)) {
+      const double y = g.u(0.08, 0.25);
+      const double size = g.u(0.015, 0.03);
+      const bool h = g.p(0.5);
+      add_stretchers(g, feet, y, size, h, leg_c);
+    }
     if (!round && g.p(0.2)) {
       const double sy = g.u(0.08, 0.2);
       g.add("shelf", make_box_part(Vec3(0, sy, 0), Vec3(hx + splay * 0.5, 0.01, hz + splay * 0.5)), top_c);
@@ -261,8 +272,8 @@ SynthShape make_table(Gen& g) {
       const double x = n == 1 ? 0.0 : (i == 0 ? -1 : 1) * L * 0.28;
       g.add("column", make_cylinder(Vec3(x, 0.02, 0), Vec3(x, H - T * 0.5, 0), col, 16), leg_c);
       if (g.p(0.5)) {
-        g.add("base", make_cylinder(Vec3(x, 0, 0), Vec3(x, g.u(0.02, 0.05), 0), g.u(0.18, std::min(0.35, Dp * 0.45)), 24),
-              leg_c);
+        const double bh = g.u(0.02, 0.05), br = g.u(0.18, std::min(0.35, Dp * 0.45));
+        g.add("base", make_cylinder(Vec3(x, 0, 0), Vec3(x, bh, 0), br, 24), leg_c);
       } else {
         const int feet = g.n(3, 4);
         const double reach = g.u(0.2, std::min(0.4, Dp * 0.5));
@@ -496,7 +507,9 @@ SynthShape make_cabinet(Gen& g) {
   } else if (base == 1) {
     y0 = g.u(0.06, 0.2);
     const double s = g.u(0.025, 0.05);
-    add_four_legs(g, g.n(0, 2), W / 2 - s, D / 2 - s, y0 + 0.01, s, 0.0, g.p(0.5) ? metal : body);
+    const int style = g.n(0, 2);
+    const Vec3f leg_c = g.p(0.5) ? metal : body;
+    add_four_legs(g, style, W / 2 - s, D / 2 - s, y0 + 0.01, s, 0.0, leg_c);
   }
   const double h = H - y0;
   auto panel = [&](const std::string& name, const Vec3& c, const Vec3& half) {

@@ -453,9 +453,10 @@ SynthShape make_phone(Gen& g) {
       }
     if (kind == 2) {
       const double al = g.u(0.03, 0.08);
-      g.add("antenna", make_cylinder(Vec3(W * 0.3, H / 2 - 0.005, -T * 0.1), Vec3(W * 0.3, H / 2 + al, -T * 0.1),
-                                     g.u(0.002, 0.004), 8),
-            g.pick(palette::dark));
+      const double ar = g.u(0.002, 0.004);
+      const Vec3f ac = g.pick(palette::dark);
+      g.add("antenna", make_cylinder(Vec3(W * 0.3, H / 2 - 0.005, -T * 0.1), Vec3(W * 0.3, H / 2 + al, -T * 0.1), ar, 8),
+            ac);
     }
   }
   // Side buttons.

@@ -413,7 +413,9 @@ SynthShape make_watercraft(Gen& g) {
     if (g.p(0.7)) cabin(Vec3(0, deck_y + Dh * 0.25, -L * 0.12), Vec3(B * 0.25, Dh * 0.3, L * 0.12), true);
   } else if (kind == 1) {
     // Motorboat: cabin with windshield frame, outboard motor or console.
-    cabin(Vec3(0, deck_y + Dh * 0.3, L * 0.02), Vec3(B * 0.3, Dh * 0.35, L * g.u(0.1, 0.2)), g.p(0.7));
+    const double cl = L * g.u(0.1, 0.2);
+    const bool windows = g.p(0.7);
+    cabin(Vec3(0, deck_y + Dh * 0.3, L * 0.02), Vec3(B * 0.3, Dh * 0.35, cl), windows);
     if (g.p(0.6)) {
       const Vec3 m(0, deck_y + Dh * 0.1, -L / 2 - 0.05 * L);
       g.add("motor", make_rounded_box(m, Vec3(0.04 * L, 0.08 * L, 0.05 * L), 0.02 * L), dark);
@@ -439,8 +441,9 @@ SynthShape make_watercraft(Gen& g) {
     for (int f = 0; f < funnels; ++f) {
       const double z = sz - L * 0.05 - f * L * 0.08;
       const double fr = B * 0.08;
-      g.add("funnel", make_cone(Vec3(0, y - 0.1, z), Vec3(0, y + Dh * g.u(0.6, 1.0), z - fr * 0.3), fr, fr * 0.9, 14),
-            g.pick(palette::paint));
+      const double fh = Dh * g.u(0.6, 1.0);
+      const Vec3f fc = g.pick(palette::paint);
+      g.add("funnel", make_cone(Vec3(0, y - 0.1, z), Vec3(0, y + fh, z - fr * 0.3), fr, fr * 0.9, 14), fc);
     }
     g.add("mast", make_cylinder(Vec3(0, y - 0.1, sz + L * 0.06), Vec3(0, y + Dh * 1.5, sz + L * 0.06), 0.06, 8), metal);
     g.add("yard", make_cylinder(Vec3(-B * 0.2, y + Dh * 1.2, sz + L * 0.06), Vec3(B * 0.2, y + Dh * 1.2, sz + L * 0.06), 0.04,
