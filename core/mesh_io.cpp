@@ -8,6 +8,10 @@
 #include <assimp/scene.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -51,6 +55,306 @@ void append_node(const aiScene* scene, const aiNode* node, const aiMatrix4x4& pa
   for (unsigned c = 0; c < node->mNumChildren; ++c) append_node(scene, node->mChildren[c], xf, V, F, C, all_colored, path);
 }
 
+// ---- Structural checks before assimp ------------------------------------------------------------------------
+// assimp is lax on broken files: it crashes on truncated binary PLY, silently drops faces with out-of-range
+// indices (binary PLY, OFF) and parses "nan" in OBJ/OFF as a finite number. These checks read the file once
+// and reject such input with a message naming the file; assimp then does the actual parsing.
+
+[[noreturn]] void fail_io(const std::string& path, const std::string& what) { throw IoError(path + ": " + what); }
+[[noreturn]] void fail_input(const std::string& path, const std::string& what) { throw InvalidInput(path + ": " + what); }
+
+bool parse_double(const char* s, double& out, const char** end = nullptr) {
+  char* e = nullptr;
+  out = std::strtod(s, &e);
+  if (e == s) return false;
+  if (end) *end = e;
+  return true;
+}
+
+void check_vertex(const std::string& path, long i, const double* xyz) {
+  for (int k = 0; k < 3; ++k)
+    if (!std::isfinite(xyz[k]))
+      fail_input(path, "non-finite vertex coordinates (NaN or Inf) at vertex " + std::to_string(i));
+}
+
+void check_index(const std::string& path, long face, long index, long nv) {
+  if (index < 0 || index >= nv)
+    fail_input(path, "face index out of range: face " + std::to_string(face) + " uses vertex " + std::to_string(index) +
+                         " but the file has " + std::to_string(nv) + " vertices");
+}
+
+void check_obj(const std::string& path, const std::string& text) {
+  long nv = 0;
+  for (size_t pos = 0; pos < text.size();) {
+    size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    if (end - pos > 2 && text[pos] == 'v' && (text[pos + 1] == ' ' || text[pos + 1] == '\t')) ++nv;
+    pos = end + 1;
+  }
+  long seen_v = 0, face = 0;
+  for (size_t pos = 0; pos < text.size();) {
+    size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    const std::string line = text.substr(pos, end - pos);
+    pos = end + 1;
+    if (line.size() < 2 || !(line[1] == ' ' || line[1] == '\t')) continue;
+    if (line[0] == 'v') {
+      double xyz[3];
+      const char* c = line.c_str() + 1;
+      for (double& x : xyz)
+        if (!parse_double(c, x, &c)) fail_io(path, "malformed vertex line '" + line + "'");
+      check_vertex(path, seen_v++, xyz);
+    } else if (line[0] == 'f') {
+      const char* c = line.c_str() + 1;
+      while (*c) {
+        while (*c == ' ' || *c == '\t' || *c == '\r') ++c;
+        if (!*c) break;
+        char* e = nullptr;
+        const long idx = std::strtol(c, &e, 10);
+        if (e == c) fail_io(path, "malformed face line '" + line + "'");
+        const long zero_based = idx > 0 ? idx - 1 : seen_v + idx;  // negative: relative to the vertices so far
+        if (idx == 0) fail_input(path, "face index 0 in '" + line + "' (OBJ indices start at 1)");
+        check_index(path, face, zero_based, nv);
+        c = e;
+        while (*c && *c != ' ' && *c != '\t') ++c;  // skip /texture/normal
+      }
+      ++face;
+    }
+  }
+}
+
+void check_off(const std::string& path, const std::string& text) {
+  std::vector<std::string> lines;
+  for (size_t pos = 0; pos < text.size();) {
+    size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(pos, end - pos);
+    pos = end + 1;
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    lines.push_back(line);
+  }
+  if (lines.empty()) fail_io(path, "empty file");
+  size_t li = 0;
+  std::string first = lines[0];
+  const size_t start = first.find_first_not_of(" \t");
+  if (first.compare(start, 3, "OFF") != 0 && first.find("OFF") == std::string::npos)
+    fail_io(path, "not an OFF file (no OFF header)");
+  // Counts may follow the keyword on the same line.
+  std::string counts = first.substr(first.find("OFF") + 3);
+  if (counts.find_first_not_of(" \t\r") == std::string::npos) {
+    if (lines.size() < 2) fail_io(path, "truncated OFF file (no vertex/face counts)");
+    counts = lines[++li];
+  }
+  long nv = -1, nf = -1;
+  if (std::sscanf(counts.c_str(), "%ld %ld", &nv, &nf) != 2 || nv < 0 || nf < 0)
+    fail_io(path, "malformed OFF counts line '" + counts + "'");
+  if (static_cast<long>(lines.size()) - static_cast<long>(li) - 1 < nv + nf)
+    fail_io(path, "truncated OFF file (" + std::to_string(nv) + " vertices and " + std::to_string(nf) +
+                      " faces announced, " + std::to_string(lines.size() - li - 1) + " data lines present)");
+  for (long v = 0; v < nv; ++v) {
+    double xyz[3];
+    const char* c = lines[li + 1 + v].c_str();
+    for (double& x : xyz)
+      if (!parse_double(c, x, &c)) fail_io(path, "malformed OFF vertex line '" + lines[li + 1 + v] + "'");
+    check_vertex(path, v, xyz);
+  }
+  for (long f = 0; f < nf; ++f) {
+    const std::string& line = lines[li + 1 + nv + f];
+    const char* c = line.c_str();
+    char* e = nullptr;
+    const long n = std::strtol(c, &e, 10);
+    if (e == c || n < 0) fail_io(path, "malformed OFF face line '" + line + "'");
+    c = e;
+    for (long k = 0; k < n; ++k) {
+      const long idx = std::strtol(c, &e, 10);
+      if (e == c) fail_io(path, "truncated OFF face line '" + line + "'");
+      check_index(path, f, idx, nv);
+      c = e;
+    }
+  }
+}
+
+struct PlyProperty {
+  std::string name;
+  int size = 0;             ///< bytes of the scalar (or of each list item)
+  std::string type;         ///< scalar / item type
+  int count_size = 0;       ///< > 0 for lists: bytes of the count
+  std::string count_type;
+};
+struct PlyElement {
+  std::string name;
+  long count = 0;
+  std::vector<PlyProperty> props;
+};
+
+int ply_type_size(const std::string& t) {
+  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+  if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32") return 4;
+  if (t == "double" || t == "float64") return 8;
+  return 0;
+}
+
+double ply_binary_value(const char* p, const std::string& t, bool big_endian) {
+  char b[8];
+  const int n = ply_type_size(t);
+  for (int i = 0; i < n; ++i) b[i] = big_endian ? p[n - 1 - i] : p[i];
+  if (t == "char" || t == "int8") return static_cast<double>(*reinterpret_cast<const int8_t*>(b));
+  if (t == "uchar" || t == "uint8") return static_cast<double>(*reinterpret_cast<const uint8_t*>(b));
+  int16_t i16; uint16_t u16; int32_t i32; uint32_t u32; float f32; double f64;
+  if (t == "short" || t == "int16") { std::memcpy(&i16, b, 2); return i16; }
+  if (t == "ushort" || t == "uint16") { std::memcpy(&u16, b, 2); return u16; }
+  if (t == "int" || t == "int32") { std::memcpy(&i32, b, 4); return i32; }
+  if (t == "uint" || t == "uint32") { std::memcpy(&u32, b, 4); return u32; }
+  if (t == "float" || t == "float32") { std::memcpy(&f32, b, 4); return f32; }
+  std::memcpy(&f64, b, 8);
+  return f64;
+}
+
+void check_ply(const std::string& path, const std::string& data) {
+  if (data.compare(0, 3, "ply") != 0) fail_io(path, "not a PLY file (no 'ply' magic)");
+  const size_t header_end = data.find("end_header");
+  if (header_end == std::string::npos) fail_io(path, "truncated PLY header (no end_header)");
+  size_t body = data.find('\n', header_end);
+  if (body == std::string::npos) fail_io(path, "truncated PLY file (nothing after end_header)");
+  ++body;
+  std::string format;
+  std::vector<PlyElement> elements;
+  {
+    size_t pos = 0;
+    while (pos < header_end) {
+      size_t end = data.find('\n', pos);
+      std::string line = data.substr(pos, end - pos);
+      pos = end + 1;
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      char a[64] = {0}, b[64] = {0}, c[64] = {0}, d[64] = {0}, e[64] = {0};
+      const int n = std::sscanf(line.c_str(), "%63s %63s %63s %63s %63s", a, b, c, d, e);
+      const std::string kw = n > 0 ? a : "";
+      if (kw == "format") {
+        format = b;
+      } else if (kw == "element") {
+        PlyElement el;
+        el.name = b;
+        char* endp = nullptr;
+        el.count = std::strtol(c, &endp, 10);
+        if (n < 3 || endp == c || el.count < 0) fail_io(path, "malformed PLY header line '" + line + "'");
+        elements.push_back(el);
+      } else if (kw == "property") {
+        if (elements.empty()) fail_io(path, "PLY property before any element");
+        PlyProperty p;
+        if (std::string(b) == "list") {
+          p.count_type = c;
+          p.count_size = ply_type_size(c);
+          p.type = d;
+          p.size = ply_type_size(d);
+          p.name = e;
+          if (n < 5 || p.count_size == 0 || p.size == 0) fail_io(path, "malformed PLY header line '" + line + "'");
+        } else {
+          p.type = b;
+          p.size = ply_type_size(b);
+          p.name = c;
+          if (n < 3 || p.size == 0) fail_io(path, "malformed PLY header line '" + line + "'");
+        }
+        elements.back().props.push_back(p);
+      }
+    }
+  }
+  const bool ascii = format == "ascii";
+  const bool big = format == "binary_big_endian";
+  if (!ascii && !big && format != "binary_little_endian") fail_io(path, "unknown PLY format '" + format + "'");
+  long nv = 0;
+  for (const auto& el : elements)
+    if (el.name == "vertex") nv = el.count;
+  size_t pos = body;
+  const char* text = data.c_str();
+  auto next_value = [&](const std::string& type, const std::string& where) -> double {
+    if (ascii) {
+      while (pos < data.size() && std::isspace(static_cast<unsigned char>(data[pos]))) ++pos;
+      if (pos >= data.size()) fail_io(path, "truncated PLY file (data ends inside " + where + ")");
+      const char* s = text + pos;
+      const char* e = nullptr;
+      double v = 0;
+      if (!parse_double(s, v, &e)) fail_io(path, "malformed PLY value in " + where);
+      pos += static_cast<size_t>(e - s);
+      return v;
+    }
+    const int n = ply_type_size(type);
+    if (pos + static_cast<size_t>(n) > data.size())
+      fail_io(path, "truncated binary PLY (data ends inside " + where + ")");
+    const double v = ply_binary_value(text + pos, type, big);
+    pos += static_cast<size_t>(n);
+    return v;
+  };
+  for (const auto& el : elements) {
+    const bool is_vertex = el.name == "vertex", is_face = el.name == "face";
+    for (long i = 0; i < el.count; ++i) {
+      const std::string where = el.name + " " + std::to_string(i) + " of " + std::to_string(el.count);
+      double xyz[3] = {0, 0, 0};
+      for (const auto& p : el.props) {
+        if (p.count_size > 0) {
+          const double n = next_value(p.count_type, where);
+          if (!(n >= 0) || n > 1e6) fail_io(path, "bad list length in " + where);
+          const bool indices = is_face && (p.name == "vertex_indices" || p.name == "vertex_index");
+          for (long k = 0; k < static_cast<long>(n); ++k) {
+            const double idx = next_value(p.type, where);
+            if (indices) check_index(path, i, static_cast<long>(idx), nv);
+          }
+        } else {
+          const double v = next_value(p.type, where);
+          if (is_vertex && p.name.size() == 1 && p.name[0] >= 'x' && p.name[0] <= 'z') xyz[p.name[0] - 'x'] = v;
+        }
+      }
+      if (is_vertex) check_vertex(path, i, xyz);
+    }
+  }
+}
+
+void check_stl(const std::string& path, const std::string& data) {
+  if (data.size() >= 84) {
+    uint32_t n = 0;
+    std::memcpy(&n, data.data() + 80, 4);
+    if (data.size() == 84 + 50 * static_cast<size_t>(n)) {  // binary
+      for (uint32_t t = 0; t < n; ++t)
+        for (int v = 0; v < 3; ++v) {
+          float f[3];
+          std::memcpy(f, data.data() + 84 + 50 * static_cast<size_t>(t) + 12 + 12 * v, 12);
+          const double xyz[3] = {f[0], f[1], f[2]};
+          check_vertex(path, 3L * t + v, xyz);
+        }
+      return;
+    }
+  }
+  const size_t start = data.find_first_not_of(" \t\r\n");
+  if (start == std::string::npos || data.compare(start, 5, "solid") != 0) {
+    if (data.size() >= 84) {
+      uint32_t n = 0;
+      std::memcpy(&n, data.data() + 80, 4);
+      fail_io(path, "truncated or malformed binary STL (" + std::to_string(n) + " triangles need " +
+                        std::to_string(84 + 50 * static_cast<size_t>(n)) + " bytes, the file has " +
+                        std::to_string(data.size()) + ")");
+    }
+    fail_io(path, "not an STL file (too small for binary, no 'solid' keyword)");
+  }
+  long v = 0;
+  for (size_t p = data.find("vertex"); p != std::string::npos; p = data.find("vertex", p + 6)) {
+    double xyz[3];
+    const char* c = data.c_str() + p + 6;
+    for (double& x : xyz)
+      if (!parse_double(c, x, &c)) fail_io(path, "malformed STL vertex " + std::to_string(v));
+    check_vertex(path, v++, xyz);
+  }
+}
+
+void check_structure(const std::string& path, const std::string& ext) {
+  const std::string data = read_file(path);
+  if (data.find_first_not_of(" \t\r\n") == std::string::npos) fail_io(path, "empty file");
+  if (ext == "obj") check_obj(path, data);
+  else if (ext == "off") check_off(path, data);
+  else if (ext == "ply") check_ply(path, data);
+  else if (ext == "stl") check_stl(path, data);
+}
+
 }  // namespace
 
 Mesh read_mesh(const std::string& path, MeshReport* report) {
@@ -58,6 +362,7 @@ Mesh read_mesh(const std::string& path, MeshReport* report) {
   if (ext != "obj" && ext != "ply" && ext != "off" && ext != "stl")
     throw IoError(path + ": unknown mesh extension '." + ext + "' (expected .obj, .ply, .off or .stl)");
   if (!std::filesystem::is_regular_file(path)) throw IoError(path + ": no such file");
+  check_structure(path, ext);
   Assimp::Importer importer;
   // Keep lines/points out, keep every face as is: sdfkit counts degenerate faces itself.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
@@ -66,6 +371,7 @@ Mesh read_mesh(const std::string& path, MeshReport* report) {
   if (scene == nullptr || scene->mRootNode == nullptr) {
     std::string why = importer.GetErrorString();
     if (why.empty()) why = "cannot parse";
+    if (why.rfind(path, 0) == 0) throw IoError(why);  // assimp already named the file
     throw IoError(path + ": " + why);
   }
   std::vector<Vec3> V;
