@@ -1,0 +1,94 @@
+// `sdfkit train pose --data DIR -o MODEL`: train the camera pose estimator on a prepared dataset.
+#include "apps/command.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "nets/pose_train.h"
+
+#include <cstdio>
+#include <iostream>
+
+namespace sdfkit::app {
+namespace {
+
+std::function<int()> setup_train_pose(CLI::App& app) {
+  struct Opts {
+    PoseTrainSettings s;
+    double minutes = 0;
+    bool json = false;
+  };
+  auto o = std::make_shared<Opts>();
+  PoseTrainSettings& s = o->s;
+  app.add_option("--data", s.data, "prepared dataset folder (sdfkit prep ... --views V)")->required();
+  app.add_option("-o,--out", s.out,
+                 "model file to write; MODEL.csv (loss curve), MODEL.svg (plot) and MODEL.train.ckpt (resumable "
+                 "training state) are written beside it")
+      ->required();
+  app.add_option("--split", s.train_split,
+                 "training split: a name (DATA/NAME.lst or DATA/../NAME.lst) or a list file of <category>/<shape>")
+      ->capture_default_str();
+  app.add_option("--val-split", s.val_split, "validation split (\"\" = validate on training shapes)")
+      ->capture_default_str();
+  app.add_option("--steps", s.steps, "optimisation steps")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--batch", s.batch, "(shape, view) images per step")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--points", s.points, "sample points per image in the loss (DISN: 2048)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--lr", s.lr, "Adam learning rate (cosine decay to --lr-min)")->capture_default_str();
+  app.add_option("--lr-min", s.lr_min, "learning rate at the last step")->capture_default_str();
+  app.add_option("--beta1", s.beta1, "Adam beta1 (DISN: 0.5)")->capture_default_str();
+  app.add_option("--weight-decay", s.weight_decay, "L2 weight decay (coupled)")->capture_default_str();
+  app.add_option("--grad-clip", s.grad_clip, "clip the gradient norm (0 = off)")->capture_default_str();
+  app.add_option("--val-every", s.val_every, "validate, checkpoint and rewrite the curve every N steps")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--val-items", s.val_items, "validation images (seeded choice of views)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-shapes", s.max_shapes, "use only the first N training shapes (0 = all)")->capture_default_str();
+  app.add_option("--width", s.net.width, "channels of the first convolution (later: 2x, 4x, 8x)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--distance-min", o->s.net.distance_min, "smallest predictable camera distance")
+      ->capture_default_str();
+  app.add_option("--distance-max", o->s.net.distance_max, "largest predictable camera distance")->capture_default_str();
+  app.add_option("--seed", s.seed, "seed of the initialisation and of every batch")->capture_default_str();
+  app.add_flag("--resume", s.resume,
+               "continue from MODEL.train.ckpt when it exists (same settings required; bit-exact continuation)");
+  app.add_option("--minutes", o->minutes, "stop after this many minutes, saving the model (0 = no limit)")
+      ->capture_default_str();
+  app.add_flag("--json", o->json, "print the result as JSON on stdout");
+  return [o] {
+    PoseTrainSettings& s = o->s;
+    s.time_limit_seconds = o->minutes * 60.0;
+    ProgressBar bar("train pose", s.steps);
+    const bool tty = stderr_is_tty();
+    const PoseTrainResult r = train_pose(s, [&](const PoseTrainEvent& e) {
+      bar.update(e.step);
+      if (e.validated) {
+        char line[256];
+        std::snprintf(line, sizeof line, "step %ld/%ld  L_cam %.5f  lr %.2e  val: L_cam %.5f d3D %.4f d2D %.3f px  (%.0f s)",
+                      e.step, e.total, e.loss, e.lr, e.val.loss, e.val.d3d, e.val.d2d, e.seconds);
+        std::fprintf(stderr, "%s%s\n", tty ? "\r\033[K" : "", line);
+      }
+    });
+    bar.finish();
+    const Json j = {{"model", r.model},       {"csv", r.csv},
+                    {"plot", r.plot},         {"steps", r.steps},
+                    {"start_step", r.start_step}, {"seconds", r.seconds},
+                    {"total_seconds", r.total_seconds},
+                    {"val", {{"loss", r.val.loss}, {"d3d", r.val.d3d}, {"d2d", r.val.d2d}, {"items", r.val.items}}}};
+    if (o->json)
+      std::cout << j.dump(2) << '\n';
+    else
+      std::cout << "trained " << r.steps - r.start_step << " steps (to step " << r.steps << ") in " << r.seconds
+                << " s; validation d3D " << r.val.d3d << ", d2D " << r.val.d2d << " px\nmodel: " << r.model
+                << "\nloss curve: " << r.csv << ", " << r.plot << '\n';
+    return int(kOk);
+  };
+}
+
+SDFKIT_REGISTER_COMMAND("train pose", "train the camera pose estimator (6D rotation + distance) on a prepared dataset",
+                        setup_train_pose);
+
+}  // namespace
+}  // namespace sdfkit::app

@@ -1,0 +1,329 @@
+#include "nets/pose_train.h"
+
+#include "nets/checkpoint.h"
+#include "nets/sdf_train.h"  // write_loss_plot_svg
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace sdfkit {
+namespace {
+
+constexpr const char* kPoseKind = "pose_model";
+
+Json settings_json(const PoseTrainSettings& s) {
+  // What must not change across a resume (changing it would break the bit-exact continuation).
+  return {{"train_split", s.train_split}, {"steps", s.steps},   {"batch", s.batch},
+          {"points", s.points},           {"lr", s.lr},         {"lr_min", s.lr_min},
+          {"beta1", s.beta1},             {"weight_decay", s.weight_decay}, {"grad_clip", s.grad_clip},
+          {"max_shapes", s.max_shapes},   {"seed", s.seed}};
+}
+
+std::vector<PointsF> split_points(const SdfBatch& batch) {
+  std::vector<PointsF> pts(static_cast<size_t>(batch.size()));
+  const int N = batch.points_per_item;
+  for (int b = 0; b < batch.size(); ++b) pts[b] = batch.points.middleRows(static_cast<Eigen::Index>(b) * N, N);
+  return pts;
+}
+
+Points to_double(const PointsF& p) { return p.cast<double>(); }
+
+struct ValSet {
+  MatrixXfR images;
+  std::vector<PointsF> points;
+  std::vector<Camera> cameras;
+};
+
+ValSet make_val_set(const Dataset& data, int items, int points, uint64_t seed) {
+  ValSet v;
+  std::vector<std::pair<int, int>> pairs;
+  Rng rng = Rng::derived(seed, 0x7a1);
+  const int n = static_cast<int>(data.size());
+  for (int k = 0; k < items; ++k) {
+    const int s = k % n;
+    const int views = std::max(1, data.shape(s).num_views);
+    pairs.emplace_back(s, static_cast<int>(rng.below(static_cast<uint64_t>(views))));
+  }
+  v.images.resize(items, 3 * kNetImageSize * kNetImageSize);
+  for (int k = 0; k < items; ++k) {
+    const auto [s, view] = pairs[k];
+    v.images.row(k) = data.input(s, view).transpose();
+    v.cameras.push_back(data.camera(s, view));
+    PointsF p;
+    Eigen::VectorXf d;
+    draw_samples(data.samples(s), points, Rng::mix(seed + 1000003ULL * static_cast<uint64_t>(s)), p, d);
+    v.points.push_back(p);
+  }
+  return v;
+}
+
+PoseScores score_batch(PoseNet& net, const MatrixXfR& images, const std::vector<PointsF>& points,
+                       const std::vector<Camera>& truth, std::vector<PoseErrors>* each = nullptr,
+                       std::vector<double>* losses = nullptr) {
+  const PosePrediction p = net.predict(images);
+  PoseScores sc;
+  for (size_t b = 0; b < p.cameras.size(); ++b) {
+    const PoseErrors e = pose_errors(to_double(points[b]), p.cameras[b], truth[b]);
+    const double l = pose_point_loss(p.cameras[b].R, p.cameras[b].t.z(), points[b], truth[b], nullptr, nullptr);
+    sc.loss += l;
+    if (losses) losses->push_back(l);
+    sc.d3d += e.d3d;
+    sc.d2d += e.d2d;
+    ++sc.items;
+    if (each) each->push_back(e);
+  }
+  return sc;
+}
+
+PoseScores validate(PoseNet& net, const ValSet& v, int batch) {
+  PoseScores total;
+  const Eigen::Index n = v.images.rows();
+  for (Eigen::Index b0 = 0; b0 < n; b0 += batch) {
+    const Eigen::Index m = std::min<Eigen::Index>(batch, n - b0);
+    const std::vector<PointsF> pts(v.points.begin() + b0, v.points.begin() + b0 + m);
+    const std::vector<Camera> cams(v.cameras.begin() + b0, v.cameras.begin() + b0 + m);
+    const PoseScores s = score_batch(net, v.images.middleRows(b0, m), pts, cams);
+    total.loss += s.loss;
+    total.d3d += s.d3d;
+    total.d2d += s.d2d;
+    total.items += s.items;
+  }
+  if (total.items > 0) {
+    total.loss /= static_cast<double>(total.items);
+    total.d3d /= static_cast<double>(total.items);
+    total.d2d /= static_cast<double>(total.items);
+  }
+  return total;
+}
+
+void write_curve(const std::string& csv, const std::string& svg, const Json& curve) {
+  std::ostringstream o;
+  o << "step,train_loss,val_loss,val_d3d,val_d2d,lr,seconds\n";
+  std::vector<std::vector<double>> rows;
+  for (const auto& r : curve) {
+    std::vector<double> row;
+    for (size_t c = 0; c < r.size(); ++c) {
+      const double v = r[c].is_null() ? std::numeric_limits<double>::quiet_NaN() : r[c].get<double>();
+      row.push_back(v);
+      if (c) o << ',';
+      if (std::isfinite(v)) o << std::setprecision(8) << v;
+    }
+    o << '\n';
+    rows.push_back(row);
+  }
+  write_text_atomic(csv, o.str());
+  write_loss_plot_svg(svg, rows, {"step", "train L_cam", "val L_cam", "val d3D", "val d2D (px)"}, {1, 2, 3, 4},
+                      "pose network: loss (log scale)");
+}
+
+}  // namespace
+
+void save_pose_model(const std::string& path, PoseNet& net, const Json& training, const Optimizer* optimizer) {
+  Checkpoint ck;
+  ck.header["kind"] = kPoseKind;
+  ck.header["architecture"] = net.architecture();
+  ck.header["training"] = training;
+  ck.set_block("params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
+  if (optimizer) ck.put_optimizer(*optimizer);
+  save_checkpoint(path, ck);
+}
+
+std::unique_ptr<PoseNet> load_pose_model(const std::string& path, Json* training) {
+  const Checkpoint ck = load_checkpoint(path);
+  if (ck.header.value("kind", std::string()) != kPoseKind)
+    throw IoError(path + ": not a pose model (kind '" + ck.header.value("kind", std::string()) + "')");
+  PoseNetSettings s;
+  try {
+    s = PoseNetSettings::from_json(ck.header.at("architecture").at("settings"));
+  } catch (const Json::exception&) {
+    throw IoError(path + ": pose model without network settings");
+  }
+  auto net = std::make_unique<PoseNet>(s, false);
+  require_header_match(ck, "architecture", net->architecture(), path);
+  const auto& p = ck.block("params", static_cast<long>(net->n_params()));
+  std::copy(p.begin(), p.end(), net->params().values.begin());
+  if (training) *training = ck.header.value("training", Json::object());
+  return net;
+}
+
+PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(const PoseTrainEvent&)>& on_event) {
+  require(!s.data.empty() && !s.out.empty(), "train pose: --data and -o are required");
+  require(s.steps > 0 && s.batch > 0 && s.points > 0 && s.val_every > 0 && s.val_items > 0,
+          "train pose: steps, batch, points, val-every and val-items must be positive");
+  require(s.lr > 0 && s.lr_min >= 0 && s.lr_min <= s.lr, "train pose: need 0 <= lr-min <= lr, lr > 0");
+  const auto t0 = std::chrono::steady_clock::now();
+  DatasetSettings ds;
+  ds.root = s.data;
+  ds.split = s.train_split;
+  ds.max_shapes = s.max_shapes;
+  const Dataset train(ds);
+  require(train.size() > 0, s.data + ": the training split has no shapes");
+  DatasetSettings vs = ds;
+  vs.split = s.val_split;
+  vs.max_shapes = 0;
+  const Dataset val = s.val_split.empty() ? Dataset(ds) : Dataset(vs);
+  require(val.size() > 0, s.data + ": the validation split has no shapes");
+  const ValSet val_set = make_val_set(val, s.val_items, s.points, s.seed);
+
+  BatchSettings bs;
+  bs.batch_size = s.batch;
+  bs.points_per_shape = s.points;
+  bs.seed = s.seed;
+  const BatchSampler sampler(train, bs);
+
+  PoseNet net(s.net, true);
+  net.init(s.seed);
+  OptimizerSettings os;
+  os.beta1 = s.beta1;
+  os.weight_decay = s.weight_decay;
+  Optimizer opt(os, net.n_params());
+  LrSchedule lr;
+  lr.kind = LrSchedule::Kind::Cosine;
+  lr.base = s.lr;
+  lr.min_lr = s.lr_min;
+  lr.total_steps = s.steps;
+
+  const std::string state_path = s.out + ".train.ckpt";
+  PoseTrainResult result;
+  result.model = s.out;
+  result.csv = s.out + ".csv";
+  result.plot = s.out + ".svg";
+  long step = 0;
+  double prior_seconds = 0;
+  Json curve = Json::array();
+  if (s.resume && fs::exists(state_path)) {
+    const Checkpoint ck = load_checkpoint(state_path);
+    require_header_match(ck, "architecture", net.architecture(), state_path);
+    require_header_match(ck, "settings", settings_json(s), state_path);
+    const auto& p = ck.block("params", static_cast<long>(net.n_params()));
+    std::copy(p.begin(), p.end(), net.params().values.begin());
+    ck.get_optimizer(opt);
+    step = ck.header.at("step").get<long>();
+    prior_seconds = ck.header.value("seconds", 0.0);
+    curve = ck.header.value("curve", Json::array());
+  }
+  result.start_step = step;
+
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  double interval_loss = 0;
+  long interval_n = 0;
+  bool stop = false;
+  while (step < s.steps && !stop) {
+    const SdfBatch batch = sampler.batch(step);
+    net.params().zero_grad();
+    const double loss = net.forward_backward(batch.images, split_points(batch), batch.cameras);
+    if (s.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.params().size(), s.grad_clip);
+    const double rate = lr.at(step);
+    opt.step(net.params().values.data(), net.params().grads.data(), rate);
+    ++step;
+    interval_loss += loss;
+    ++interval_n;
+    if (s.time_limit_seconds > 0 && elapsed() > s.time_limit_seconds) stop = true;
+    PoseTrainEvent ev;
+    ev.step = step;
+    ev.total = s.steps;
+    ev.loss = loss;
+    ev.lr = rate;
+    ev.seconds = prior_seconds + elapsed();
+    Json row = {step, loss, nullptr, nullptr, nullptr, rate, ev.seconds};
+    if (step % s.val_every == 0 || step == s.steps || stop) {
+      ev.validated = true;
+      ev.val = validate(net, val_set, s.batch);
+      result.val = ev.val;
+      row[2] = ev.val.loss;
+      row[3] = ev.val.d3d;
+      row[4] = ev.val.d2d;
+      curve.push_back(row);
+      interval_loss = 0;
+      interval_n = 0;
+      Json training = {{"step", step},       {"seconds", ev.seconds},     {"val_loss", ev.val.loss},
+                       {"val_d3d", ev.val.d3d}, {"val_d2d", ev.val.d2d}, {"settings", settings_json(s)},
+                       {"data", s.data},     {"val_split", s.val_split}};
+      // Resumable state (parameters + optimizer + curve), then the small model file.
+      Checkpoint ck;
+      ck.header["kind"] = "pose_training_state";
+      ck.header["architecture"] = net.architecture();
+      ck.header["settings"] = settings_json(s);
+      ck.header["step"] = step;
+      ck.header["seconds"] = ev.seconds;
+      ck.header["curve"] = curve;
+      ck.set_block("params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
+      ck.put_optimizer(opt);
+      save_checkpoint(state_path, ck);
+      save_pose_model(s.out, net, training);
+      write_curve(result.csv, result.plot, curve);
+    } else {
+      curve.push_back(row);
+    }
+    if (on_event) on_event(ev);
+  }
+  result.steps = step;
+  result.seconds = elapsed();
+  result.total_seconds = prior_seconds + result.seconds;
+  return result;
+}
+
+PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettings& es,
+                         std::map<std::string, PoseScores>* per_category,
+                         const std::function<void(long, long)>& progress) {
+  require(es.points > 0 && es.batch > 0, "eval-pose: points and batch must be positive");
+  std::vector<std::pair<int, int>> items;
+  for (size_t s = 0; s < data.size(); ++s) {
+    const int nv = es.views < 0 ? data.shape(s).num_views : std::min(es.views, data.shape(s).num_views);
+    for (int v = 0; v < nv; ++v) items.emplace_back(static_cast<int>(s), v);
+  }
+  require(!items.empty(), data.root() + ": no views to evaluate");
+  std::vector<PointsF> shape_points(data.size());
+  for (size_t s = 0; s < data.size(); ++s) {
+    Eigen::VectorXf d;
+    draw_samples(data.samples(s), es.points, Rng::mix(es.seed + 1000003ULL * s), shape_points[s], d);
+  }
+  PoseScores total;
+  const int S = net.settings().image_size;
+  for (size_t b0 = 0; b0 < items.size(); b0 += static_cast<size_t>(es.batch)) {
+    const size_t m = std::min(items.size() - b0, static_cast<size_t>(es.batch));
+    MatrixXfR images(static_cast<Eigen::Index>(m), 3 * S * S);
+    std::vector<PointsF> pts;
+    std::vector<Camera> cams;
+    for (size_t k = 0; k < m; ++k) {
+      const auto [s, v] = items[b0 + k];
+      images.row(static_cast<Eigen::Index>(k)) = network_image(data.image(s, v), S).transpose();
+      pts.push_back(shape_points[s]);
+      cams.push_back(data.camera(s, v));
+    }
+    std::vector<PoseErrors> each;
+    std::vector<double> losses;
+    const PoseScores sc = score_batch(net, images, pts, cams, &each, &losses);
+    total.loss += sc.loss;
+    total.d3d += sc.d3d;
+    total.d2d += sc.d2d;
+    total.items += sc.items;
+    if (per_category)
+      for (size_t k = 0; k < m; ++k) {
+        PoseScores& c = (*per_category)[data.shape(items[b0 + k].first).category];
+        c.d3d += each[k].d3d;
+        c.d2d += each[k].d2d;
+        c.loss += losses[k];
+        ++c.items;
+      }
+    if (progress) progress(static_cast<long>(b0 + m), static_cast<long>(items.size()));
+  }
+  auto finish = [](PoseScores& p) {
+    if (p.items == 0) return;
+    p.loss /= static_cast<double>(p.items);
+    p.d3d /= static_cast<double>(p.items);
+    p.d2d /= static_cast<double>(p.items);
+  };
+  finish(total);
+  if (per_category)
+    for (auto& [k, v] : *per_category) finish(v);
+  return total;
+}
+
+}  // namespace sdfkit

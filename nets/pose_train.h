@@ -1,0 +1,83 @@
+// Training and evaluation of the pose estimator (`sdfkit train pose`, `sdfkit eval-pose`): seeded batches from
+// the prepared dataset (nets/dataset.h), DISN's L_cam, Adam, periodic validation (L_cam, d3D, d2D), a CSV loss
+// curve + SVG plot, checkpoints that a resumed run continues bit for bit, and the model file.
+#pragma once
+
+#include "camera/pose_metrics.h"
+#include "nets/dataset.h"
+#include "nets/optim.h"
+#include "nets/pose_net.h"
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+
+namespace sdfkit {
+
+struct PoseTrainSettings {
+  std::string data;                   ///< prepared dataset folder
+  std::string train_split = "train";  ///< split name or list file (DatasetSettings::split)
+  std::string val_split = "val";      ///< "" = validate on training shapes
+  std::string out;                    ///< model path; <out>.csv and <out>.svg beside it
+  PoseNetSettings net;
+  long steps = 2000;
+  int batch = 16;
+  int points = 512;        ///< sample points per item for L_cam
+  double lr = 5e-4;        ///< Adam; cosine decay to lr_min over `steps`
+  double lr_min = 1e-5;
+  double beta1 = 0.5;      ///< DISN's Adam beta1
+  double weight_decay = 0;
+  double grad_clip = 5.0;  ///< gradient-norm clip (0 = off)
+  int val_every = 200;     ///< validate + checkpoint every N steps (and at the end)
+  int val_items = 48;      ///< (shape, view) items used for validation
+  int max_shapes = 0;
+  uint64_t seed = 1;
+  bool resume = false;
+  double time_limit_seconds = 0;  ///< stop (and save) after this much wall time (0 = none)
+};
+
+struct PoseScores {
+  double loss = 0;  ///< mean L_cam
+  double d3d = 0;   ///< mean d3D (object-frame units)
+  double d2d = 0;   ///< mean d2D (pixels)
+  long items = 0;
+};
+
+struct PoseTrainEvent {
+  long step = 0, total = 0;
+  double loss = 0, lr = 0, seconds = 0;
+  bool validated = false;
+  PoseScores val;
+};
+
+struct PoseTrainResult {
+  long steps = 0, start_step = 0;
+  double seconds = 0;        ///< wall time of this run
+  double total_seconds = 0;  ///< including earlier runs that were resumed
+  PoseScores val;
+  std::string model, csv, plot;
+};
+
+PoseTrainResult train_pose(const PoseTrainSettings& settings,
+                           const std::function<void(const PoseTrainEvent&)>& on_event = {});
+
+/// Model file = checkpoint with "kind": "pose_model", the architecture and the parameters (+ training state).
+void save_pose_model(const std::string& path, PoseNet& net, const Json& training = Json::object(),
+                     const Optimizer* optimizer = nullptr);
+/// Inference-only network from a model file (IoError naming the file when missing/corrupt/not a pose model).
+std::unique_ptr<PoseNet> load_pose_model(const std::string& path, Json* training = nullptr);
+
+/// d3D / d2D (camera/pose_metrics.h) of the network on (shape, view) items, `points` seeded sample points per
+/// shape (2048 as DISN). views < 0: every view of every shape. Per-category means in `per_category`.
+struct PoseEvalSettings {
+  int points = 2048;
+  int views = -1;  ///< views per shape (first N), -1 = all
+  int batch = 16;
+  uint64_t seed = 1;
+};
+PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettings& settings,
+                         std::map<std::string, PoseScores>* per_category = nullptr,
+                         const std::function<void(long, long)>& progress = {});
+
+}  // namespace sdfkit
