@@ -67,21 +67,16 @@ std::vector<int> hungarian(const Eigen::MatrixXd& cost, double* total) {
   return match;
 }
 
-SparseAssignment::SparseAssignment(int n)
+SparseAuction::SparseAuction(int n)
     : n_(n),
-      edges_(static_cast<size_t>(n)),
-      col_of_row_(static_cast<size_t>(n), -1),
-      row_of_col_(static_cast<size_t>(n), -1),
-      matched_cost_(static_cast<size_t>(n), 0.0),
-      v_(static_cast<size_t>(n), 0.0),
-      dist_(static_cast<size_t>(n), std::numeric_limits<double>::infinity()),
-      pred_cost_(static_cast<size_t>(n), 0.0),
-      pred_row_(static_cast<size_t>(n), -1),
-      final_(static_cast<size_t>(n), 0) {
+      edges_(static_cast<size_t>(std::max(n, 0))),
+      col_of_row_(static_cast<size_t>(std::max(n, 0)), -1),
+      row_of_col_(static_cast<size_t>(std::max(n, 0)), -1),
+      price_(static_cast<size_t>(std::max(n, 0)), 0.0) {
   require(n > 0, "assignment: empty problem");
 }
 
-void SparseAssignment::add_edges(int row, const std::vector<std::pair<int, double>>& edges) {
+void SparseAuction::add_edges(int row, const std::vector<std::pair<int, double>>& edges) {
   auto& e = edges_[static_cast<size_t>(row)];
   for (const auto& [col, c] : edges) {
     require(col >= 0 && col < n_ && std::isfinite(c), "assignment: bad edge");
@@ -92,121 +87,116 @@ void SparseAssignment::add_edges(int row, const std::vector<std::pair<int, doubl
   e.erase(std::unique(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first == b.first; }), e.end());
 }
 
-long SparseAssignment::num_edges() const {
+long SparseAuction::num_edges() const {
   long m = 0;
   for (const auto& e : edges_) m += static_cast<long>(e.size());
   return m;
 }
 
-void SparseAssignment::greedy_start() {
-  for (int i = 0; i < n_; ++i) {
-    if (col_of_row_[i] >= 0) continue;
-    const auto& e = edges_[static_cast<size_t>(i)];
-    if (e.empty()) continue;
-    // Cheapest reduced cost c - v (prices may be non-zero after an earlier solve).
-    int best = -1;
-    double best_rc = std::numeric_limits<double>::infinity(), best_c = 0;
-    for (const auto& [j, c] : e)
-      if (c - v_[j] < best_rc) {
-        best_rc = c - v_[j];
-        best = j;
-        best_c = c;
-      }
-    if (row_of_col_[best] < 0) {
-      col_of_row_[i] = best;
-      row_of_col_[best] = i;
-      matched_cost_[i] = best_c;
-    }
-  }
-}
-
-void SparseAssignment::unassign(int row) {
-  const int j = col_of_row_[static_cast<size_t>(row)];
-  if (j < 0) return;
-  row_of_col_[j] = -1;
-  col_of_row_[row] = -1;
-}
-
-double SparseAssignment::row_dual(int row) const {
-  const int j = col_of_row_[static_cast<size_t>(row)];
-  return j < 0 ? 0.0 : matched_cost_[row] - v_[j];
-}
-
-std::vector<int> SparseAssignment::solve() {
-  std::vector<int> failed;
+int SparseAuction::ensure_perfect_matching(const std::function<double(int, int)>& cost_of) {
+  // Kuhn's augmenting paths (iterative DFS) from a greedy start; unweighted.
+  std::vector<int> match_row(n_, -1), match_col(n_, -1), visited(n_, -1), parent_col(n_, -1);
   for (int i = 0; i < n_; ++i)
-    if (col_of_row_[i] < 0 && !augment(i)) failed.push_back(i);
-  return failed;
+    for (const auto& [j, c] : edges_[i])
+      if (match_col[j] < 0) {
+        match_col[j] = i;
+        match_row[i] = j;
+        break;
+      }
+  int completed = 0;
+  std::vector<std::pair<int, size_t>> stack;  // (row, next edge index)
+  for (int r = 0; r < n_; ++r) {
+    if (match_row[r] >= 0) continue;
+    bool found = false;
+    stack.assign(1, {r, 0});
+    // visited[col] = r marks columns seen in this search; parent_col[col] = row that reached it.
+    while (!stack.empty() && !found) {
+      auto& [i, next] = stack.back();
+      if (next == edges_[i].size()) {
+        stack.pop_back();
+        continue;
+      }
+      const int j = edges_[i][next++].first;
+      if (visited[j] == r) continue;
+      visited[j] = r;
+      parent_col[j] = i;
+      if (match_col[j] < 0) {
+        // augment along the stack: each row on it takes the column it reached next
+        int col = j;
+        for (auto it = stack.rbegin(); it != stack.rend(); ++it) {
+          const int row = it->first;
+          const int prev = match_row[row];
+          match_row[row] = col;
+          match_col[col] = row;
+          col = prev;
+        }
+        found = true;
+      } else {
+        stack.emplace_back(match_col[j], 0);
+      }
+    }
+    if (!found) {
+      std::vector<std::pair<int, double>> all(static_cast<size_t>(n_));
+      for (int j = 0; j < n_; ++j) all[j] = {j, cost_of(r, j)};
+      add_edges(r, all);
+      ++completed;
+      --r;  // search again from the same row: it now reaches every column
+    }
+  }
+  return completed;
 }
 
-// One Dijkstra from the free row `r` over reduced costs c(i,k) - v(k) - u(i), where u(i) is implied by the
-// assignment (the matched edge of an assigned row has reduced cost 0 and all its other edges >= 0). It stops at the
-// first free column reached; prices of the columns finalised before it are lowered so that reduced costs stay >= 0
-// and the new path has reduced cost 0 (Jonker & Volgenant's update).
-bool SparseAssignment::augment(int r) {
-  using Item = std::pair<double, int>;
-  std::vector<Item> heap;
-  auto push = [&](double d, int j) {
-    heap.emplace_back(d, j);
-    std::push_heap(heap.begin(), heap.end(), std::greater<>());
-  };
-  // d = distance of the row's entry point, u = the row's dual; reduced costs of rounding-level negative size are
-  // clamped to 0 so that Dijkstra's order stays valid.
-  auto relax = [&](int row, double d_row, double u, int j, double c) {
-    const double d = d_row + std::max(0.0, c - v_[j] - u);
-    if (d < dist_[j]) {
-      if (dist_[j] == std::numeric_limits<double>::infinity()) touched_.push_back(j);
-      dist_[j] = d;
-      pred_row_[j] = row;
-      pred_cost_[j] = c;
-      push(d, j);
+void SparseAuction::bid_until_assigned(std::vector<int> queue) {
+  // FIFO of free rows (deterministic order).
+  size_t head = 0;
+  while (head < queue.size()) {
+    const int i = queue[head++];
+    const auto& e = edges_[i];
+    double best = std::numeric_limits<double>::infinity(), second = best, best_c = 0;
+    int best_j = -1;
+    for (const auto& [j, c] : e) {
+      const double w = c + price_[j];
+      if (w < best) {
+        second = best;
+        best = w;
+        best_j = j;
+        best_c = c;
+      } else if (w < second) {
+        second = w;
+      }
     }
-  };
-  // Start row: its implied u is min_j (c - v), subtracted below so that distances start at >= 0.
-  double u_r = std::numeric_limits<double>::infinity();
-  for (const auto& [j, c] : edges_[r]) u_r = std::min(u_r, c - v_[j]);
-  for (const auto& [j, c] : edges_[r]) relax(r, 0.0, u_r, j, c);
-  int found = -1;
-  double dmin = 0;
-  while (!heap.empty()) {
-    std::pop_heap(heap.begin(), heap.end(), std::greater<>());
-    const auto [d, j] = heap.back();
-    heap.pop_back();
-    if (final_[j] || d > dist_[j]) continue;
-    final_[j] = 1;
-    scanned_.push_back(j);
-    const int i = row_of_col_[j];
-    if (i < 0) {
-      found = j;
-      dmin = d;
-      break;
+    (void)best_c;
+    // A row with one edge has no second choice: it may raise the price by anything; a large finite step
+    // (a few times the eps of the first phase would do) keeps prices finite.
+    const double margin = std::isfinite(second) ? second - best : 1.0 + std::abs(best);
+    price_[best_j] += margin + eps_;
+    ++bids_;
+    const int previous = row_of_col_[best_j];
+    row_of_col_[best_j] = i;
+    col_of_row_[i] = best_j;
+    if (previous >= 0) {
+      col_of_row_[previous] = -1;
+      queue.push_back(previous);
     }
-    // Leaving row i through any edge (i, k): reduced cost c(i,k) - v(k) - u(i), u(i) = matched - v(j).
-    const double u_i = matched_cost_[i] - v_[j];
-    for (const auto& [k, c] : edges_[i])
-      if (!final_[k]) relax(i, d, u_i, k, c);
-  }
-  if (found >= 0) {
-    for (int k : scanned_) v_[k] += dist_[k] - dmin;
-    int j = found;
-    while (true) {
-      const int i = pred_row_[j];
-      const int next = col_of_row_[i];
-      col_of_row_[i] = j;
-      row_of_col_[j] = i;
-      matched_cost_[i] = pred_cost_[j];
-      if (i == r) break;
-      j = next;
+    if (head > 4096 && head * 2 > queue.size()) {  // keep the queue small
+      queue.erase(queue.begin(), queue.begin() + static_cast<std::ptrdiff_t>(head));
+      head = 0;
     }
   }
-  for (int j : touched_) {
-    dist_[j] = std::numeric_limits<double>::infinity();
-    final_[j] = 0;
+}
+
+void SparseAuction::solve(double eps_start, double eps_final, double factor) {
+  require(eps_final > 0 && eps_start >= eps_final && factor > 1, "auction: bad epsilon schedule");
+  eps_ = eps_start;
+  while (true) {
+    std::fill(col_of_row_.begin(), col_of_row_.end(), -1);
+    std::fill(row_of_col_.begin(), row_of_col_.end(), -1);
+    std::vector<int> queue(static_cast<size_t>(n_));
+    for (int i = 0; i < n_; ++i) queue[i] = i;
+    bid_until_assigned(std::move(queue));
+    if (eps_ <= eps_final) break;
+    eps_ = std::max(eps_ / factor, eps_final);
   }
-  for (int j : scanned_) final_[j] = 0;
-  touched_.clear();
-  scanned_.clear();
-  return found >= 0;
 }
 
 }  // namespace sdfkit::metrics

@@ -1,13 +1,13 @@
 // Minimum-cost perfect assignment (the combinatorial core of the exact EMD).
 //  - hungarian(): the dense O(n^3) Hungarian method with potentials; the reference and the baseline.
-//  - SparseAssignment: successive shortest augmenting paths (Dijkstra on reduced costs with column prices, the
-//    augmentation step of Jonker & Volgenant) on a sparse candidate graph that can grow; rows can be freed and
-//    re-augmented (warm start). Exact in exact arithmetic; optimality for the full dense problem is certified by
-//    the caller from the duals (metrics/emd.h).
+//  - SparseAuction: Bertsekas' auction with epsilon scaling on a sparse candidate graph that can grow; rows can
+//    re-solved from the current prices (warm start). Optimal to within n eps; optimality for the full dense problem is
+//    certified by the caller from the prices (metrics/emd.h).
 #pragma once
 
 #include <Eigen/Core>
 
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -17,40 +17,40 @@ namespace sdfkit::metrics {
 /// `total`, when given, receives the summed cost. Throws InvalidInput if the matrix is not square or not finite.
 std::vector<int> hungarian(const Eigen::MatrixXd& cost, double* total = nullptr);
 
-class SparseAssignment {
+/// Forward auction (Bertsekas) with epsilon scaling on a sparse bipartite graph, minimisation form: every free
+/// row bids for the column j that minimises c_ij + p_j, raising p_j by the margin to its second-best column
+/// plus eps. At the end of a phase every row is assigned and eps-complementary slackness holds on the graph:
+/// c_i,s(i) + p_s(i) <= min_j (c_ij + p_j) + eps, so the assignment costs at most n eps more than the graph's
+/// optimum. The caller checks the full (dense) problem from the prices (metrics/emd.h).
+class SparseAuction {
  public:
-  explicit SparseAssignment(int n);
+  explicit SparseAuction(int n);
 
-  /// Adds candidate edges (column, cost) of `row`; a column already present keeps its first cost. Adding edges
-  /// to an assigned row may break the optimality of its assignment: free it (unassign) before re-solving.
+  /// Adds candidate edges (column, cost) of `row`; a column already present keeps its first cost.
   void add_edges(int row, const std::vector<std::pair<int, double>>& edges);
-  /// Assigns each row whose cheapest edge's column is still free to it (a valid start: prices are all 0).
-  void greedy_start();
-  /// Augments every free row. Returns the rows for which no augmenting path exists in the current graph (they
-  /// stay free); empty = complete assignment.
-  std::vector<int> solve();
-  void unassign(int row);
+  /// Makes sure a perfect matching exists in the graph (bipartite augmenting paths, unweighted): rows that cannot
+  /// be matched get every column, with costs from `cost_of(row, col)`. Returns how many rows were completed.
+  int ensure_perfect_matching(const std::function<double(int, int)>& cost_of);
+  /// Runs epsilon-scaling phases from eps_start down to eps_final (dividing by `factor`), each phase starting
+  /// from the previous prices with every row free.
+  void solve(double eps_start, double eps_final, double factor = 8.0);
 
   [[nodiscard]] int size() const { return n_; }
   [[nodiscard]] long num_edges() const;
+  [[nodiscard]] long num_bids() const { return bids_; }
+  [[nodiscard]] double eps() const { return eps_; }
   [[nodiscard]] const std::vector<int>& col_of_row() const { return col_of_row_; }
-  [[nodiscard]] const std::vector<double>& column_prices() const { return v_; }
-  /// Row dual u_i = cost(i, col_of_row(i)) - v(col_of_row(i)) (defined for assigned rows).
-  [[nodiscard]] double row_dual(int row) const;
-  [[nodiscard]] double assigned_cost(int row) const { return matched_cost_[static_cast<size_t>(row)]; }
+  [[nodiscard]] const std::vector<double>& prices() const { return price_; }
 
  private:
-  bool augment(int row);
+  void bid_until_assigned(std::vector<int> queue);
 
   int n_;
+  double eps_ = 0;
+  long bids_ = 0;
   std::vector<std::vector<std::pair<int, double>>> edges_;  // per row, sorted by column
   std::vector<int> col_of_row_, row_of_col_;
-  std::vector<double> matched_cost_, v_;
-  // Dijkstra scratch, reset after every augmentation (only the touched entries).
-  std::vector<double> dist_, pred_cost_;
-  std::vector<int> pred_row_;
-  std::vector<char> final_;
-  std::vector<int> touched_, scanned_;
+  std::vector<double> price_;
 };
 
 }  // namespace sdfkit::metrics

@@ -43,7 +43,7 @@ EmdResult emd(const Points& a, const Points& b, const EmdSettings& settings) {
 EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& settings) {
   check_pair(a, b);
   require(settings.candidates >= 1, "EMD: candidates must be >= 1");
-  require(settings.tolerance >= 0, "EMD: tolerance must be >= 0");
+  require(settings.tolerance > 0, "EMD: tolerance must be > 0");
   const int n = static_cast<int>(a.rows());
   const int k = std::min(settings.candidates, n);
   Box3 box;
@@ -51,11 +51,22 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
     box.extend(a.row(i).transpose());
     box.extend(b.row(i).transpose());
   }
-  const double tol = settings.tolerance * std::max(box.extent().norm(), 1e-300);
+  const double diag = box.extent().norm();
+  EmdResult result;
+  result.n = n;
+  result.method = EmdMethod::exact;
+  if (!(diag > 0)) {  // every point at the same place
+    result.match.resize(n);
+    for (int i = 0; i < n; ++i) result.match[i] = i;
+    result.rounds = 1;
+    return result;
+  }
+  // eps-CS bounds the excess cost by n eps: eps_final = tolerance x diag / n bounds it by tolerance x diag.
+  const double eps_final = settings.tolerance * diag / n;
 
   // Candidate graph: a_i's k nearest in b, and b_j's k nearest in a (as edges (i, j)). Queried in parallel into
   // per-point slots, inserted sequentially: the graph does not depend on the thread count.
-  SparseAssignment solver(n);
+  SparseAuction auction(n);
   {
     const KdTree tb(b, "EMD: second point set"), ta(a, "EMD: first point set");
     std::vector<std::vector<std::pair<int, double>>> fwd(n), bwd(n);
@@ -70,63 +81,72 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
       for (const auto& [j, d2] : fwd[i]) rows[i].emplace_back(j, distance(a, i, b, j));
     for (int j = 0; j < n; ++j)
       for (const auto& [i, d2] : bwd[j]) rows[i].emplace_back(j, distance(a, i, b, j));
-    for (int i = 0; i < n; ++i) solver.add_edges(i, rows[i]);
+    for (int i = 0; i < n; ++i) auction.add_edges(i, rows[i]);
   }
-  solver.greedy_start();
+  auction.ensure_perfect_matching([&](int i, int j) { return distance(a, i, b, j); });
+  auction.solve(std::max(diag / 4, eps_final), eps_final, 8.0);
 
-  EmdResult result;
-  result.n = n;
-  result.method = EmdMethod::exact;
+  // Certificate on the full problem: u_i = min over ALL j of (c_ij + p_j) and v_j = -p_j are feasible duals, so
+  // the optimum is >= sum(u) + sum(v) and the excess of the assignment is at most
+  //   gap = sum_i [c_i,s(i) + p_s(i) - min_j (c_ij + p_j)].
+  // Rows whose slack exceeds eps (eps-CS broken by a pair outside the graph) get those pairs, and the auction
+  // runs again (warm: prices kept).
+  // The dense distance matrix, once (row-major; rows filled in parallel, each by one task).
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> cost(n, n);
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 16), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i != r.end(); ++i)
+      for (int j = 0; j < n; ++j) cost(i, j) = distance(a, i, b, j);
+  });
   std::vector<std::vector<std::pair<int, double>>> violations(n);
   std::vector<double> slack(n);
   for (int round = 1;; ++round) {
-    // Rows without an augmenting path in the sparse graph get every column (then a path always exists).
-    for (int i : solver.solve()) {
-      std::vector<std::pair<int, double>> all(n);
-      for (int j = 0; j < n; ++j) all[j] = {j, distance(a, i, b, j)};
-      solver.add_edges(i, all);
-      solver.unassign(i);
-    }
-    if (!solver.solve().empty()) throw Error("EMD: assignment failed on a dense row (internal error)");
-    // Certificate: reduced costs of all n^2 pairs.
-    const auto& v = solver.column_prices();
+    const auto& p = auction.prices();
+    const auto& s = auction.col_of_row();
+    const double eps = auction.eps();
     tbb::parallel_for(tbb::blocked_range<int>(0, n, 16), [&](const tbb::blocked_range<int>& r) {
       for (int i = r.begin(); i != r.end(); ++i) {
-        const double u = solver.row_dual(i);
-        double worst = 0;
+        const double mine = cost(i, s[i]) + p[s[i]];
+        double best = mine;
         violations[i].clear();
         for (int j = 0; j < n; ++j) {
-          const double c = distance(a, i, b, j);
-          const double rc = c - u - v[j];
-          if (rc < -tol) violations[i].emplace_back(j, c);
-          worst = std::min(worst, rc);
+          const double c = cost(i, j);
+          const double w = c + p[j];
+          best = std::min(best, w);
+          if (w < mine - eps) violations[i].emplace_back(j, c);
         }
-        slack[i] = worst;
+        slack[i] = mine - best;
       }
     });
     bool any = false;
+    double worst = 0;
     for (int i = 0; i < n; ++i)
       if (!violations[i].empty()) {
+        // Only the most attractive few: the auction finds out whether it wants more (next round).
+        auto& v = violations[i];
+        const size_t keep = std::min<size_t>(v.size(), static_cast<size_t>(4 * settings.candidates));
+        std::partial_sort(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(keep), v.end(),
+                          [&](const auto& x, const auto& y) {
+                            return x.second + p[x.first] < y.second + p[y.first] ||
+                                   (x.second + p[x.first] == y.second + p[y.first] && x.first < y.first);
+                          });
+        v.resize(keep);
+        auction.add_edges(i, v);
         any = true;
-        solver.add_edges(i, violations[i]);
-        solver.unassign(i);
+        worst = std::max(worst, slack[i]);
       }
     if (!any) {
       result.rounds = round;
-      double worst = 0;
-      for (int i = 0; i < n; ++i) worst = std::min(worst, slack[i]);
-      result.gap_bound = -worst * n;
+      for (int i = 0; i < n; ++i) result.gap_bound += slack[i];
       break;
     }
+    // Re-run the scaling from the size of the worst violation, warm-started from the current prices: bidding
+    // directly at eps_final would need (price change / eps_final) bids.
+    auction.solve(std::max(worst, eps_final), eps_final, 8.0);
   }
-  result.match = solver.col_of_row();
-  for (int i = 0; i < n; ++i) {
-    const int j = result.match[i];
-    // Matched edges have reduced cost 0 up to rounding; add what rounding left to the bound.
-    result.gap_bound += std::abs(solver.assigned_cost(i) - solver.row_dual(i) - solver.column_prices()[j]);
-    result.total += distance(a, i, b, j);
-  }
-  result.edges = solver.num_edges();
+  result.match = auction.col_of_row();
+  for (int i = 0; i < n; ++i) result.total += distance(a, i, b, result.match[i]);
+  result.edges = auction.num_edges();
+  result.bids = auction.num_bids();
   return result;
 }
 

@@ -46,8 +46,11 @@ TEST_CASE("exact EMD equals the brute-force Hungarian optimum (n <= 200)") {
       const Points a = random_cloud(n, seed * 31 + n), b = random_cloud(n, seed * 37 + n + 5, 0.7);
       const EmdResult ref = emd_hungarian(a, b);
       const EmdResult e = emd_exact(a, b);
+      // certified: optimum <= total <= optimum + gap_bound, gap_bound <= tolerance x diagonal (< 4e-9 here)
+      CHECK(e.total >= ref.total - 1e-9);
+      CHECK(e.total <= ref.total + e.gap_bound + 1e-9);
+      CHECK(e.gap_bound <= 4e-9);
       CHECK(e.total == doctest::Approx(ref.total).epsilon(1e-10));
-      CHECK(e.gap_bound <= 1e-6 * std::max(1.0, ref.total));
       // the returned matching is a permutation whose cost is the total
       std::vector<int> m = e.match;
       double cost = 0;
