@@ -95,7 +95,8 @@ LookAtParams look_at_params(const Camera& cam) {
     p.azimuth_deg = std::atan2(C.x(), C.z()) / kDeg;
   else  // at a pole the azimuth only shows in the horizontal x axis (cos az, 0, -sin az)
     p.azimuth_deg = std::atan2(-cam.R(0, 2), cam.R(0, 0)) / kDeg;
-  if (p.azimuth_deg <= -180.0) p.azimuth_deg += 360.0;
+  if (p.azimuth_deg < 0) p.azimuth_deg += 360.0;
+  if (p.azimuth_deg >= 360.0) p.azimuth_deg -= 360.0;
   return p;
 }
 

@@ -43,7 +43,7 @@ Camera look_at(double azimuth_deg, double elevation_deg, double distance, int wi
                int height = kDisnImageSize);
 
 /// The look-at parameters of a camera (exact inverse of look_at for look-at cameras): distance = |C|,
-/// azimuth in (-180, 180], elevation in [-90, 90] from the camera centre C.
+/// azimuth in [0, 360), elevation in [-90, 90] from the camera centre C.
 struct LookAtParams {
   double azimuth_deg = 0, elevation_deg = 0, distance = 0;
 };

@@ -64,7 +64,7 @@ TEST_CASE("camera: look-at axis convention and closed-form projection") {
 TEST_CASE("camera: look_at_params inverts look_at") {
   Rng rng(7);
   for (int k = 0; k < 100; ++k) {
-    const double az = rng.uniform(-179, 180), el = rng.uniform(-89.9, 89.9), d = rng.uniform(0.5, 5);
+    const double az = rng.uniform(0, 359.9), el = rng.uniform(-89.9, 89.9), d = rng.uniform(0.5, 5);
     const LookAtParams p = look_at_params(look_at(az, el, d));
     CHECK(p.azimuth_deg == doctest::Approx(az).epsilon(1e-9));
     CHECK(p.elevation_deg == doctest::Approx(el).epsilon(1e-9));

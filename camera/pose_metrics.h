@@ -1,0 +1,25 @@
+// Camera-pose errors as in DISN's Table 3: d3D, the mean distance between a shape's points transformed by the
+// predicted and by the true camera (object frame units), and d2D, the mean reprojection error in pixels.
+#pragma once
+
+#include "camera/camera.h"
+#include "core/types.h"
+
+namespace sdfkit {
+
+struct PoseErrors {
+  double d3d = 0;        ///< mean_i |(R_p x_i + t_p) - (R_t x_i + t_t)|
+  double d2d = 0;        ///< mean_i |pi_p(x_i) - pi_t(x_i)| over points in front of both cameras (pixels)
+  long points_2d = 0;    ///< points used for d2D (z_cam > 0 in both cameras)
+};
+
+/// Both errors over the #P x 3 object-frame points X (e.g. the shape's 2048 sample points). Each camera
+/// projects with its own K. Throws InvalidInput for no points or non-finite coordinates; d2D is 0 with
+/// points_2d = 0 when no point is in front of both cameras.
+PoseErrors pose_errors(const Points& X, const Camera& predicted, const Camera& truth);
+
+/// The two numbers alone.
+double pose_d3d(const Points& X, const Camera& predicted, const Camera& truth);
+double pose_d2d(const Points& X, const Camera& predicted, const Camera& truth);
+
+}  // namespace sdfkit

@@ -1,0 +1,62 @@
+#include "camera/pose_metrics.h"
+#include "core/error.h"
+#include "core/random.h"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+
+using namespace sdfkit;
+
+namespace {
+Points random_points(int n, uint64_t seed) {
+  Rng rng(seed);
+  Points X(n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) X(i, k) = rng.uniform(-1, 1);
+  return X;
+}
+}  // namespace
+
+TEST_CASE("pose metrics: zero for the true camera, |delta| for a translation error") {
+  const Points X = random_points(2048, 1);
+  const Camera truth = look_at(45, 28, 2.6);
+  const PoseErrors same = pose_errors(X, truth, truth);
+  CHECK(same.d3d == 0.0);
+  CHECK(same.d2d == 0.0);
+  CHECK(same.points_2d == 2048);
+  Camera shifted = truth;
+  shifted.t += Vec3(0.03, -0.04, 0.0);  // |delta| = 0.05
+  CHECK(pose_d3d(X, shifted, truth) == doctest::Approx(0.05).epsilon(1e-12));
+  // d2D of an x/y shift: each pixel moves by f * |delta_xy| / z_cam.
+  double expect = 0;
+  for (Eigen::Index i = 0; i < X.rows(); ++i) expect += kDisnFocal * 0.05 / to_camera(truth, X.row(i).transpose()).z();
+  CHECK(pose_d2d(X, shifted, truth) == doctest::Approx(expect / 2048).epsilon(1e-9));
+}
+
+TEST_CASE("pose metrics: a roll about the optical axis, closed form") {
+  const Points X = random_points(500, 2);
+  const Camera truth = look_at(120, 25, 2.5);
+  const double theta = 0.1;
+  Camera rolled = truth;
+  const Mat3 Rz = Eigen::AngleAxisd(theta, Vec3::UnitZ()).toRotationMatrix();
+  rolled.R = Rz * truth.R;
+  rolled.t = Rz * truth.t;  // (0, 0, d): unchanged
+  double e3 = 0, e2 = 0;
+  for (Eigen::Index i = 0; i < X.rows(); ++i) {
+    const Vec3 c = to_camera(truth, X.row(i).transpose());
+    const double rxy = std::hypot(c.x(), c.y());
+    e3 += 2 * std::sin(theta / 2) * rxy;
+    e2 += 2 * std::sin(theta / 2) * kDisnFocal * rxy / c.z();  // pixels rotate about the principal point
+  }
+  const PoseErrors e = pose_errors(X, rolled, truth);
+  CHECK(e.d3d == doctest::Approx(e3 / 500).epsilon(1e-10));
+  CHECK(e.d2d == doctest::Approx(e2 / 500).epsilon(1e-10));
+}
+
+TEST_CASE("pose metrics: errors") {
+  CHECK_THROWS_AS(pose_errors(Points(0, 3), look_at(0, 0, 2), look_at(0, 0, 2)), InvalidInput);
+  Points bad = random_points(3, 3);
+  bad(1, 1) = NAN;
+  CHECK_THROWS_AS(pose_errors(bad, look_at(0, 0, 2), look_at(0, 0, 2)), InvalidInput);
+}
