@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "synth/benchmark.h"
 #include "synth/categories.h"
+#include "synth/sheet.h"
 
 #include <chrono>
 #include <iostream>
@@ -31,6 +32,9 @@ std::function<int()> setup_synth(CLI::App& app) {
     std::string preset = "ci";
     int jobs = 0;
     bool json = false;
+    std::string sheet;
+    int sheet_k = 6;
+    int sheet_cell = 160;
   };
   auto o = std::make_shared<Opts>();
   std::string names;
@@ -50,6 +54,13 @@ std::function<int()> setup_synth(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_flag("--json", o->json, "print a JSON summary on stdout");
+  app.add_option("--sheet", o->sheet, "also render a contact sheet PNG: one view of the first K shapes per category");
+  app.add_option("--sheet-per-category", o->sheet_k, "K, shapes per category on the contact sheet")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  app.add_option("--sheet-cell", o->sheet_cell, "contact sheet cell size in pixels")
+      ->check(CLI::Range(16, 2048))
+      ->capture_default_str();
   return [o] {
     synth::SynthSettings s;
     s.per_category = o->per_category > 0 ? o->per_category : (o->preset == "full" ? 100 : 3);
@@ -65,10 +76,17 @@ std::function<int()> setup_synth(CLI::App& app) {
     });
     bar.finish();
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!o->sheet.empty()) {
+      synth::SheetSettings sheet;
+      sheet.per_category = o->sheet_k;
+      sheet.cell = o->sheet_cell;
+      synth::write_contact_sheet(o->sheet, s, sheet);
+    }
     if (o->json) {
       std::cout << Json{{"out", o->out},         {"shapes", sum.shapes},       {"faces", sum.faces},
                         {"max_faces", sum.max_faces}, {"seconds", secs},        {"seed", s.seed},
-                        {"per_category", s.per_category}, {"removed_stale", sum.removed_stale}}
+                        {"per_category", s.per_category}, {"removed_stale", sum.removed_stale},
+                        {"sheet", o->sheet}}
                        .dump(2)
                 << '\n';
     } else {
@@ -76,6 +94,7 @@ std::function<int()> setup_synth(CLI::App& app) {
                 << ") to " << o->out << " in " << secs << " s";
       if (sum.removed_stale > 0) std::cout << "; removed " << sum.removed_stale << " shapes of an earlier run";
       std::cout << '\n';
+      if (!o->sheet.empty()) std::cout << "synth: contact sheet " << o->sheet << '\n';
     }
     return int(kOk);
   };
