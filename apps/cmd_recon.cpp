@@ -1,0 +1,198 @@
+// `sdfkit recon IMAGE|DIR|LIST -o OUT`: single-view reconstruction with the shipped (or a given) model.
+#include "apps/command.h"
+#include "camera/camera.h"
+#include "camera/image.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/mesh_io.h"
+#include "nets/recon.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace sdfkit::app {
+namespace {
+
+const std::vector<std::string> kImageExtensions = {"png", "jpg", "jpeg", "exr", "tif", "tiff", "bmp"};
+
+bool is_image_path(const std::string& p) {
+  const std::string e = extension_of(p);
+  return std::find(kImageExtensions.begin(), kImageExtensions.end(), e) != kImageExtensions.end();
+}
+
+/// IMAGE, a folder of images (sorted, not recursive; *_mask.* and *.preview.* files skipped), or a list file
+/// (one path per line, relative to the list's folder).
+std::vector<std::string> collect_inputs(const std::string& input) {
+  std::vector<std::string> out;
+  if (fs::is_directory(input)) {
+    for (const auto& e : fs::directory_iterator(input)) {
+      const std::string p = e.path().string(), stem = e.path().stem().string();
+      if (!e.is_regular_file() || !is_image_path(p)) continue;
+      if (stem.size() > 5 && stem.substr(stem.size() - 5) == "_mask") continue;
+      if (stem.size() > 8 && stem.substr(stem.size() - 8) == ".preview") continue;
+      out.push_back(p);
+    }
+    std::sort(out.begin(), out.end());
+    if (out.empty()) throw InvalidInput(input + ": folder holds no images (" + "png, jpg, exr, tif, bmp)");
+    return out;
+  }
+  if (!fs::exists(input)) throw IoError(input + ": no such file or folder");
+  const std::string ext = extension_of(input);
+  if (ext == "txt" || ext == "lst") {
+    std::istringstream in(read_file(input));
+    std::string line;
+    while (std::getline(in, line)) {
+      while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+      if (line.empty() || line[0] == '#') continue;
+      fs::path p(line);
+      if (p.is_relative()) p = fs::path(input).parent_path() / p;
+      out.push_back(p.string());
+    }
+    if (out.empty()) throw InvalidInput(input + ": list holds no image paths");
+    return out;
+  }
+  return {input};
+}
+
+std::function<int()> setup_recon(CLI::App& app) {
+  struct Opts {
+    std::string input, out, model, pose_model, cam = "est", mask, format = "obj";
+    ReconSettings s;
+    bool json = false, no_preview = false;
+    int jobs = 1;
+  };
+  auto o = std::make_shared<Opts>();
+  o->model = std::string(SDFKIT_SOURCE_DIR) + "/data/models/sdf.ckpt";
+  o->pose_model = std::string(SDFKIT_SOURCE_DIR) + "/data/models/pose.ckpt";
+  app.add_option("input", o->input,
+                 "an image (PNG/JPG/EXR/TIFF, any size, RGB or RGBA), a folder of images, or a .txt/.lst list of "
+                 "image paths. Transparent pixels are composited on white (the training renders' background); "
+                 "images without alpha are used as they are")
+      ->required();
+  app.add_option("-o,--out", o->out,
+                 "output: MESH.obj/.ply for one image, else a folder receiving <name>.obj (or .ply) per image; "
+                 "a preview <name>.preview.png is written beside each mesh")
+      ->required();
+  app.add_option("--model", o->model, "SDF network model")->capture_default_str();
+  app.add_option("--pose-model", o->pose_model, "camera pose network model (used with --cam est)")
+      ->capture_default_str();
+  app.add_option("--cam", o->cam,
+                 "est = estimate the camera with the pose network; a camera JSON file (views/NN.json format) for "
+                 "every image; sidecar = IMAGE's own <name>.json")
+      ->capture_default_str();
+  app.add_option("--mask", o->mask, "mask image (white = object) replacing the alpha of a single input image");
+  app.add_option("--res", o->s.resolution, "effective grid resolution (points per axis: 65, 129, 257, ...)")
+      ->capture_default_str();
+  app.add_option("--safety", o->s.safety,
+                 "Lipschitz allowance of the network field for the adaptive extraction (1 = exact SDF)")
+      ->capture_default_str();
+  app.add_flag("--dense", o->s.dense, "evaluate the full grid instead of the adaptive extraction (slower baseline)");
+  app.add_option("--keep-fraction", o->s.min_component_fraction,
+                 "drop mesh components with fewer faces than this fraction of the largest (DISN: 0.3)")
+      ->capture_default_str();
+  app.add_option("--format", o->format, "mesh format in folder mode: obj or ply")->capture_default_str();
+  app.add_flag("--no-preview", o->no_preview, "do not write the preview PNG");
+  app.add_option("-j,--jobs", o->jobs, "images reconstructed in parallel (each also uses the worker threads)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_flag("--json", o->json, "print per-image results (camera, timings per stage, evaluations) as JSON");
+  return [o] {
+    const std::vector<std::string> inputs = collect_inputs(o->input);
+    const std::string out_ext = extension_of(o->out);
+    const bool single_file = inputs.size() == 1 && (out_ext == "obj" || out_ext == "ply" || out_ext == "off");
+    if (o->format != "obj" && o->format != "ply") throw InvalidInput("--format " + o->format + ": use obj or ply");
+    if (!o->mask.empty() && inputs.size() != 1) throw InvalidInput("--mask applies to a single input image");
+    o->s.preview = !o->no_preview;
+    const bool estimate = o->cam == "est";
+    const bool sidecar = o->cam == "sidecar";
+    Camera fixed_camera;
+    if (!estimate && !sidecar) fixed_camera = read_camera(o->cam);
+    const auto rec = Reconstructor::load(o->model, estimate ? o->pose_model : std::string());
+    Image mask;
+    if (!o->mask.empty()) mask = read_image(o->mask);
+
+    std::vector<Json> results(inputs.size());
+    std::vector<int> failed(inputs.size(), 0);
+    std::mutex io;
+    ProgressBar bar("recon", static_cast<long>(inputs.size()));
+    auto one = [&](size_t i) {
+      const std::string& in = inputs[i];
+      Json j = {{"input", in}};
+      try {
+        const std::string stem = fs::path(in).stem().string();
+        const std::string mesh_path =
+            single_file ? o->out : (fs::path(o->out) / (stem + "." + o->format)).string();
+        const std::string preview_path =
+            (fs::path(mesh_path).parent_path() / (fs::path(mesh_path).stem().string() + ".preview.png")).string();
+        const Image img = read_image(in);
+        Camera cam;
+        const Camera* cam_ptr = nullptr;
+        if (sidecar) {
+          cam = read_camera((fs::path(in).parent_path() / (stem + ".json")).string());
+          cam_ptr = &cam;
+        } else if (!estimate) {
+          cam_ptr = &fixed_camera;
+        }
+        const ReconResult r = rec->run(img, o->mask.empty() ? nullptr : &mask, cam_ptr, o->s, in);
+        write_mesh(mesh_path, r.mesh);
+        if (o->s.preview) write_image(preview_path, r.preview);
+        j["mesh"] = mesh_path;
+        if (o->s.preview) j["preview"] = preview_path;
+        j["camera"] = camera_to_json(r.camera);
+        j["camera_source"] = r.camera_estimated ? "estimated" : "given";
+        j["evaluations"] = r.evaluations;
+        j["vertices"] = r.mesh.num_vertices();
+        j["faces"] = r.mesh.num_faces();
+        j["components_removed"] = r.components_removed;
+        j["resolution"] = o->s.resolution;
+        j["extraction"] = o->s.dense ? "dense" : "adaptive";
+        const ReconTimings& t = r.timings;
+        j["seconds"] = {{"prepare", t.prepare}, {"pose", t.pose},       {"encode", t.encode},
+                        {"field", t.field},     {"extract", t.extract}, {"cleanup", t.cleanup},
+                        {"preview", t.preview}, {"total", t.total}};
+        if (!o->json) {
+          std::lock_guard<std::mutex> lock(io);
+          std::cout << in << " -> " << mesh_path << " (" << r.mesh.num_faces() << " faces, " << r.evaluations
+                    << " evaluations, " << t.total << " s" << (o->s.preview ? ", preview " + preview_path : "")
+                    << ")\n";
+        }
+      } catch (const std::exception& e) {
+        failed[i] = 1;
+        j["error"] = e.what();
+        std::lock_guard<std::mutex> lock(io);
+        std::cerr << "sdfkit: error: " << e.what() << '\n';
+      }
+      results[i] = std::move(j);
+      bar.tick();
+    };
+    if (o->jobs <= 1) {
+      for (size_t i = 0; i < inputs.size(); ++i) one(i);
+    } else {
+      tbb::task_arena arena(o->jobs);
+      arena.execute([&] { tbb::parallel_for(size_t(0), inputs.size(), one); });
+    }
+    bar.finish();
+    if (o->json) {
+      Json all = Json::array();
+      for (auto& r : results) all.push_back(std::move(r));
+      std::cout << (inputs.size() == 1 ? all[0].dump(2) : all.dump(2)) << '\n';
+    }
+    const long nfail = std::count(failed.begin(), failed.end(), 1);
+    if (nfail == 0) return int(kOk);
+    return nfail == static_cast<long>(inputs.size()) && inputs.size() == 1 ? int(kUserError) : int(kPartialFailure);
+  };
+}
+
+SDFKIT_REGISTER_COMMAND("recon", "reconstruct a closed mesh from one image (camera estimate, SDF network, adaptive extraction)",
+                        setup_recon);
+
+}  // namespace
+}  // namespace sdfkit::app
