@@ -4,6 +4,8 @@
 
 #include <doctest/doctest.h>
 
+#include <array>
+#include <cmath>
 #include <filesystem>
 
 using namespace sdfkit;
@@ -73,4 +75,75 @@ TEST_CASE("validation: errors for unusable meshes, counts for handled problems")
 TEST_CASE("reader errors name the file") {
   CHECK_THROWS_WITH_AS(read_mesh("/nonexistent/x.obj"), doctest::Contains("/nonexistent/x.obj"), IoError);
   CHECK_THROWS_WITH_AS(read_mesh("/tmp/x.abc"), doctest::Contains("unknown mesh extension"), IoError);
+}
+
+namespace {
+std::string ply_binary(const std::vector<float>& v, const std::vector<std::array<int32_t, 3>>& f, size_t cut = 0) {
+  std::string s = "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(v.size() / 3) +
+                  "\nproperty float x\nproperty float y\nproperty float z\nelement face " + std::to_string(f.size()) +
+                  "\nproperty list uchar int vertex_indices\nend_header\n";
+  s.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float));
+  for (const auto& t : f) {
+    s.push_back(3);
+    s.append(reinterpret_cast<const char*>(t.data()), 12);
+  }
+  if (cut > 0) s.resize(s.size() - cut);
+  return s;
+}
+}  // namespace
+
+TEST_CASE("reader: broken files give clear errors naming the file (assimp alone is lax or crashes)") {
+  const fs::path dir = fs::temp_directory_path() / "sdfkit_core_badmeshes";
+  fs::create_directories(dir);
+  const std::vector<float> tet = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const std::vector<std::array<int32_t, 3>> faces = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  std::vector<float> nan_tet = tet;
+  nan_tet[7] = std::nanf("");
+  std::vector<std::array<int32_t, 3>> bad_faces = faces;
+  bad_faces[3][2] = 99;
+  struct Bad {
+    std::string name, content, message;
+    bool io;  // IoError (malformed file) or InvalidInput (unusable content)
+  };
+  const std::vector<Bad> cases = {
+      {"empty.obj", "", "empty file", true},
+      {"blank.ply", "\n  \n", "empty file", true},
+      {"empty.stl", "", "empty file", true},
+      {"nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", "non-finite", false},
+      {"inf.off", "OFF\n3 1 0\n0 0 0\n1 0 0\ninf 1 0\n3 0 1 2\n", "non-finite", false},
+      {"index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", "out of range", false},
+      {"negative.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -9\n", "out of range", false},
+      {"index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n", "out of range", false},
+      {"short.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n", "truncated", true},
+      {"nan_bin.ply", ply_binary(nan_tet, faces), "non-finite", false},
+      {"index_bin.ply", ply_binary(tet, bad_faces), "out of range", false},
+      {"truncated_faces.ply", ply_binary(tet, faces, 30), "truncated binary PLY", true},
+      {"truncated_vertices.ply", ply_binary(tet, faces, 60), "truncated binary PLY", true},
+      {"cut.stl", std::string(80, ' ') + std::string("\x05\0\0\0", 4) + std::string(120, '\0'), "truncated", true},
+  };
+  for (const auto& c : cases) {
+    CAPTURE(c.name);
+    const std::string path = (dir / c.name).string();
+    write_file_atomic(path, [&](std::ostream& o) { o << c.content; });
+    std::string message;
+    bool io = false, invalid = false;
+    try {
+      read_mesh(path);
+    } catch (const IoError& e) {
+      message = e.what();
+      io = true;
+    } catch (const InvalidInput& e) {
+      message = e.what();
+      invalid = true;
+    }
+    CHECK(message.rfind(path + ": ", 0) == 0);
+    CHECK(message.find(c.message) != std::string::npos);
+    CHECK(io == c.io);
+    CHECK(invalid == !c.io);
+  }
+  // The well-formed binary PLY next to them reads fine.
+  const std::string good = (dir / "good.ply").string();
+  write_file_atomic(good, [&](std::ostream& o) { o << ply_binary(tet, faces); });
+  CHECK(read_mesh(good).num_faces() == 4);
+  fs::remove_all(dir);
 }

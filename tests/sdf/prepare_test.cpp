@@ -18,6 +18,8 @@ TEST_CASE("prepare: writes the four files, norm.json last; complete shapes are s
   write_mesh(src, make_box(Vec3(1, 2, 3), Vec3(3, 3, 4)));
   PrepareSettings s;
   s.samples.count = 2000;
+  s.grid.voxel_size = 0.02;
+  s.grid.band = 0.14;
   const PrepareStatus a = prepare_shape(src, (dir / "a").string(), s);
   CHECK_FALSE(a.skipped);
   CHECK(a.gt_source == "input");  // closed, one part
@@ -46,6 +48,8 @@ TEST_CASE("prepare: an open box gets the iso-surface as ground truth, closed by 
   fs::remove_all(dir);
   PrepareSettings s;
   s.samples.count = 1000;
+  s.grid.voxel_size = 0.02;
+  s.grid.band = 0.14;
   const PrepareStatus st = prepare_mesh(test::open_box(), "open box", dir.string(), s);
   CHECK(st.gt_source == "iso");
   const Mesh gt = read_mesh(ShapeFiles(dir.string()).gt);

@@ -9,6 +9,16 @@
 
 using namespace sdfkit;
 
+namespace {
+/// A coarser grid than the default keeps the tests fast; the sampling logic does not depend on the voxel size.
+SparseSdfSettings coarse() {
+  SparseSdfSettings s;
+  s.voxel_size = 0.02;
+  s.band = 0.14;
+  return s;
+}
+}  // namespace
+
 TEST_CASE("samples: four equal bins on d = sdf - 0.003; every stored sdf is the exact distance") {
   SampleSettings ss;
   ss.count = 4000;
@@ -17,7 +27,7 @@ TEST_CASE("samples: four equal bins on d = sdf - 0.003; every stored sdf is the 
     if (c.name == "thin plate") continue;  // cannot fill the inner bins; see the next test
     CAPTURE(c.name);
     const Mesh m = orient_consistently(c.mesh);
-    const SparseSdf sdf = SparseSdf::from_mesh(m);
+    const SparseSdf sdf = SparseSdf::from_mesh(m, coarse());
     SampleReport rep;
     const MatrixXfR S = disn_samples(m, sdf, ss, &rep);
     REQUIRE(S.rows() == 4000);
@@ -48,7 +58,7 @@ TEST_CASE("samples: four equal bins on d = sdf - 0.003; every stored sdf is the 
 
 TEST_CASE("samples: a plate thinner than the inner bins redistributes, keeps the total, reports it") {
   const Mesh plate = make_box(Vec3(-0.5, -0.4, -0.002), Vec3(0.5, 0.4, 0.002));
-  const SparseSdf sdf = SparseSdf::from_mesh(plate);
+  const SparseSdf sdf = SparseSdf::from_mesh(plate, coarse());
   SampleSettings ss;
   ss.count = 2000;
   SampleReport rep;
@@ -62,7 +72,7 @@ TEST_CASE("samples: a plate thinner than the inner bins redistributes, keeps the
 
 TEST_CASE("samples: same seed -> identical bytes for 1 and 2 threads; uniform share; other seed differs") {
   const Mesh m = make_torus(Vec3::Zero(), 0.6, 0.25, 64, 32);
-  const SparseSdf sdf = SparseSdf::from_mesh(m);
+  const SparseSdf sdf = SparseSdf::from_mesh(m, coarse());
   SampleSettings ss;
   ss.count = 3000;
   ss.uniform_share = 0.2;

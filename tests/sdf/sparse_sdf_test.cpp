@@ -65,7 +65,9 @@ TEST_CASE("sparse SDF: within half a voxel of the exact SDF in the band, sign as
 
 TEST_CASE("sparse SDF: inside tiles beyond the band are negative, outside positive") {
   const Vec3 c(0, 0, 0);
-  const SparseSdf sdf = SparseSdf::from_mesh(make_icosphere(c, 0.9, 4));
+  SparseSdfSettings s;
+  s.voxel_size = 0.015;
+  const SparseSdf sdf = SparseSdf::from_mesh(make_icosphere(c, 0.9, 4), s);
   CHECK(sdf.value(Vec3(0, 0, 0)) == doctest::Approx(-sdf.background()));
   CHECK(sdf.value(Vec3(0.3, -0.2, 0.1)) == doctest::Approx(-sdf.background()));
   CHECK(sdf.value(Vec3(1.5, 0, 0)) == doctest::Approx(sdf.background()));
