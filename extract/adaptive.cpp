@@ -17,8 +17,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 void check_settings(const ExtractSettings& s, bool adaptive) {
-  require(s.resolution >= 2 && s.resolution <= 4097,
-          "extract: resolution must be in [2, 4097] grid points per axis, got " + std::to_string(s.resolution));
+  require(s.resolution >= 2 && s.resolution <= 2049,
+          "extract: resolution must be in [2, 2049] grid points per axis, got " + std::to_string(s.resolution));
   require(s.box_size > 0 && std::isfinite(s.box_size) && s.box_min.allFinite(),
           "extract: the box must have a positive, finite size");
   require(std::isfinite(s.iso), "extract: iso must be finite");
