@@ -406,6 +406,7 @@ SynthShape make_bench(Gen& g) {
 
 // ------------------------------------------------------------------------------------------------ sofa
 SynthShape make_sofa(Gen& g) {
+  const Mat3 I = Mat3::Identity();  // rounded parts use 2 rows per arc: sofas are mostly rounded boxes
   const int seats = g.n(1, 4);
   const double seat_w = g.u(0.5, 0.7);
   const double arm_w = g.p(0.1) ? 0.0 : g.u(0.08, 0.25);
@@ -420,18 +421,18 @@ SynthShape make_sofa(Gen& g) {
   const double BH = g.u(0.7, 0.95);  // back top height
   const double rad = g.u(0.01, 0.05);
   // Base frame.
-  g.add("base", make_rounded_box(Vec3(0, (leg_h + base_top) / 2, 0), Vec3(W / 2, (base_top - leg_h) / 2, D / 2), rad),
+  g.add("base", make_rounded_box(Vec3(0, (leg_h + base_top) / 2, 0), Vec3(W / 2, (base_top - leg_h) / 2, D / 2), rad, I, 2),
         body);
   // Back.
   const Vec3 back_c(0, (leg_h + BH) / 2, -D / 2 + back_t / 2);
-  g.add("back", make_rounded_box(back_c, Vec3(W / 2 - arm_w * 0.5, (BH - leg_h) / 2, back_t / 2), rad), body);
+  g.add("back", make_rounded_box(back_c, Vec3(W / 2 - arm_w * 0.5, (BH - leg_h) / 2, back_t / 2), rad, I, 2), body);
   // Seat cushions.
   const double inner = W / 2 - arm_w;
   const double cd = D - back_t;
   for (int i = 0; i < seats; ++i) {
     const double x = -inner + seat_w * (i + 0.5);
     g.add("seat_cushion", make_rounded_box(Vec3(x, base_top + cush_t / 2 - 0.005, -D / 2 + back_t + cd / 2),
-                                           Vec3(seat_w / 2 - 0.004, cush_t / 2, cd / 2 - 0.004), g.u(0.02, cush_t / 2)),
+                                           Vec3(seat_w / 2 - 0.004, cush_t / 2, cd / 2 - 0.004), g.u(0.02, cush_t / 2), I, 2),
           cushion);
   }
   // Back cushions.
@@ -441,7 +442,7 @@ SynthShape make_sofa(Gen& g) {
     for (int i = 0; i < seats; ++i) {
       const double x = -inner + seat_w * (i + 0.5);
       g.add("back_cushion",
-            transformed(make_rounded_box(Vec3(x, bh / 2, bt / 2), Vec3(seat_w / 2 - 0.004, bh / 2, bt / 2), 0.04), R,
+            transformed(make_rounded_box(Vec3(x, bh / 2, bt / 2), Vec3(seat_w / 2 - 0.004, bh / 2, bt / 2), 0.04, I, 2), R,
                         Vec3(0, SH - 0.01, -D / 2 + back_t - 0.03)),
             cushion);
     }
@@ -452,7 +453,7 @@ SynthShape make_sofa(Gen& g) {
     const bool rolled = g.p(0.35);
     for (const double sx : {-1.0, 1.0}) {
       const double x = sx * (W / 2 - arm_w / 2);
-      g.add("arm", make_rounded_box(Vec3(x, (leg_h + AH) / 2, 0), Vec3(arm_w / 2, (AH - leg_h) / 2, D / 2), rad), body);
+      g.add("arm", make_rounded_box(Vec3(x, (leg_h + AH) / 2, 0), Vec3(arm_w / 2, (AH - leg_h) / 2, D / 2), rad, I, 2), body);
       if (rolled)
         g.add("arm_roll", make_cylinder(Vec3(x, AH, -D / 2), Vec3(x, AH, D / 2 + 0.01), arm_w * 0.6, 16), body);
     }
@@ -463,7 +464,7 @@ SynthShape make_sofa(Gen& g) {
     const double ext = g.u(0.4, 0.7);
     const double x = sx * (inner - seat_w / 2);
     g.add("chaise", make_rounded_box(Vec3(x, (leg_h + SH) / 2, D / 2 + ext / 2 - 0.02),
-                                     Vec3(seat_w / 2, (SH - leg_h) / 2, ext / 2), rad),
+                                     Vec3(seat_w / 2, (SH - leg_h) / 2, ext / 2), rad, I, 2),
           cushion);
   }
   // Throw pillows.
@@ -473,7 +474,7 @@ SynthShape make_sofa(Gen& g) {
     for (int i = 0; i < n; ++i) {
       const double sx = i == 0 ? -1 : 1;
       g.add("pillow", make_rounded_box(Vec3(sx * (inner - 0.2), SH + 0.18, -D / 2 + back_t + 0.1),
-                                       Vec3(0.18, 0.17, 0.06), 0.05, rot_x(-0.3) * rot_z(sx * 0.2)),
+                                       Vec3(0.18, 0.17, 0.06), 0.05, rot_x(-0.3) * rot_z(sx * 0.2), 2),
             pc);
     }
   }
