@@ -40,6 +40,13 @@ double peak_rss_mb() {
   return u.ru_maxrss / 1024.0;  // Linux: kilobytes
 }
 
+/// CPU seconds of the whole process (user + system): robust to other processes sharing the machine.
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0 : v[v.size() / 2];
@@ -101,19 +108,22 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
     for (const auto& f : files) shapes.push_back({fs::path(f).filename().string(), read_mesh(f)});
     const fs::path tmp = fs::temp_directory_path() / ("sdfkit_bench_prep_" + std::to_string(::getpid()));
     Json results = Json::array();
-    std::printf("%-22s %7s %9s %9s %9s %10s %9s %9s %10s %10s %9s %9s %8s\n", "shape", "tris", "1thr s", "2thr s",
-                "speedup", "voxels", "% dense", "grid MB", "dense MB", "dense s", "mean err", "max err", "sign ok");
+    std::printf("%-22s %7s %8s %8s %8s %8s %10s %8s %8s %9s %9s %9s %9s %9s %8s\n", "shape", "tris", "1thr s",
+                "1thr cpu", "2thr s", "2thr cpu", "voxels", "% dense", "grid MB", "dense MB", "dense s", "dense cpu",
+                "mean err", "max err", "sign ok");
     for (const auto& sh : shapes) {
       PrepareSettings s;
-      std::vector<double> t1, t2;
+      std::vector<double> t1, t2, c1, c2;
       PrepareStatus st;
       for (int threads : {1, 2}) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
         for (int r = 0; r < o->repeats; ++r) {
           s.overwrite = true;
           const auto t0 = Clock::now();
+          const double cpu0 = cpu_seconds();
           st = prepare_mesh(sh.mesh, sh.name, (tmp / "shape").string(), s);
           (threads == 1 ? t1 : t2).push_back(seconds_since(t0));
+          (threads == 1 ? c1 : c2).push_back(cpu_seconds() - cpu0);
         }
       }
       const double rss_sparse = peak_rss_mb();
@@ -168,10 +178,11 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
       }
 
       // Dense baseline: exact distance + winding-number sign at every point of the dense grid (2 threads).
-      double dense_s = 0, dense_mb = dense_voxels * 4.0 / 1e6;
+      double dense_s = 0, dense_cpu = 0, dense_mb = dense_voxels * 4.0 / 1e6;
       if (!o->no_dense) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
         const auto t0 = Clock::now();
+        const double cpu0 = cpu_seconds();
         const WindingNumber wn(object);
         std::vector<float> dense(static_cast<size_t>(dense_voxels));
         const int R = o->dense_res;
@@ -185,12 +196,13 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
             }
         });
         dense_s = seconds_since(t0);
+        dense_cpu = cpu_seconds() - cpu0;
       }
       const double m1 = median(t1), m2 = median(t2);
       const double pct = 100.0 * static_cast<double>(st.active_voxels) / static_cast<double>(dense_voxels);
-      std::printf("%-22s %7ld %9.3f %9.3f %9.2f %10ld %8.2f%% %9.2f %10.1f %10.2f %9.5f %9.5f %7.2f%%\n",
-                  sh.name.c_str(), static_cast<long>(sh.mesh.F.rows()), m1, m2, m1 / m2, st.active_voxels, pct,
-                  st.grid_bytes / 1e6, dense_mb, dense_s, mean_err, max_err,
+      std::printf("%-22s %7ld %8.3f %8.3f %8.3f %8.3f %10ld %7.2f%% %8.2f %9.1f %9.2f %9.2f %9.5f %9.5f %7.2f%%\n",
+                  sh.name.c_str(), static_cast<long>(sh.mesh.F.rows()), m1, median(c1), m2, median(c2),
+                  st.active_voxels, pct, st.grid_bytes / 1e6, dense_mb, dense_s, dense_cpu, mean_err, max_err,
                   100.0 * sign_ok / std::max<double>(1, static_cast<double>(P.rows())));
       std::fflush(stdout);
       results.push_back({{"shape", sh.name},
@@ -199,6 +211,9 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
                          {"seconds_2_threads", t2},
                          {"median_1_thread", m1},
                          {"median_2_threads", m2},
+                         {"cpu_seconds_1_thread", c1},
+                         {"cpu_seconds_2_threads", c2},
+                         {"dense_cpu_seconds", dense_cpu},
                          {"active_voxels", st.active_voxels},
                          {"dense_voxels", dense_voxels},
                          {"grid_bytes", st.grid_bytes},
