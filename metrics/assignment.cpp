@@ -76,8 +76,9 @@ SparseAuction::SparseAuction(int n)
   require(n > 0, "assignment: empty problem");
 }
 
-void SparseAuction::add_edges(int row, const std::vector<std::pair<int, double>>& edges) {
+int SparseAuction::add_edges(int row, const std::vector<std::pair<int, double>>& edges) {
   auto& e = edges_[static_cast<size_t>(row)];
+  const size_t before = e.size();
   for (const auto& [col, c] : edges) {
     require(col >= 0 && col < n_ && std::isfinite(c), "assignment: bad edge");
     e.emplace_back(col, c);
@@ -85,6 +86,7 @@ void SparseAuction::add_edges(int row, const std::vector<std::pair<int, double>>
   // Stable sort by column, then drop repeated columns (the first cost stays).
   std::stable_sort(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   e.erase(std::unique(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first == b.first; }), e.end());
+  return static_cast<int>(e.size() - before);
 }
 
 long SparseAuction::num_edges() const {

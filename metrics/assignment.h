@@ -26,8 +26,9 @@ class SparseAuction {
  public:
   explicit SparseAuction(int n);
 
-  /// Adds candidate edges (column, cost) of `row`; a column already present keeps its first cost.
-  void add_edges(int row, const std::vector<std::pair<int, double>>& edges);
+  /// Adds candidate edges (column, cost) of `row`; a column already present keeps its first cost. Returns the
+  /// number of new edges.
+  int add_edges(int row, const std::vector<std::pair<int, double>>& edges);
   /// Makes sure a perfect matching exists in the graph (bipartite augmenting paths, unweighted): rows that cannot
   /// be matched get every column, with costs from `cost_of(row, col)`. Returns how many rows were completed.
   int ensure_perfect_matching(const std::function<double(int, int)>& cost_of);

@@ -89,8 +89,9 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
   // Certificate on the full problem: u_i = min over ALL j of (c_ij + p_j) and v_j = -p_j are feasible duals, so
   // the optimum is >= sum(u) + sum(v) and the excess of the assignment is at most
   //   gap = sum_i [c_i,s(i) + p_s(i) - min_j (c_ij + p_j)].
-  // Rows whose slack exceeds eps (eps-CS broken by a pair outside the graph) get those pairs, and the auction
-  // runs again (warm: prices kept).
+  // Rows whose slack exceeds 2 eps (eps-CS broken by a pair outside the graph; the factor 2 keeps rounding in
+  // the price updates from reporting edges already in the graph) get those pairs, and the auction runs again
+  // (warm: prices kept). The loop also ends when no new pair could be added; the bound is exact either way.
   // The dense distance matrix, once (row-major; rows filled in parallel, each by one task).
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> cost(n, n);
   tbb::parallel_for(tbb::blocked_range<int>(0, n, 16), [&](const tbb::blocked_range<int>& r) {
@@ -112,7 +113,7 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
           const double c = cost(i, j);
           const double w = c + p[j];
           best = std::min(best, w);
-          if (w < mine - eps) violations[i].emplace_back(j, c);
+          if (w < mine - 2 * eps) violations[i].emplace_back(j, c);
         }
         slack[i] = mine - best;
       }
@@ -130,9 +131,10 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
                                    (x.second + p[x.first] == y.second + p[y.first] && x.first < y.first);
                           });
         v.resize(keep);
-        auction.add_edges(i, v);
-        any = true;
-        worst = std::max(worst, slack[i]);
+        if (auction.add_edges(i, v) > 0) {
+          any = true;
+          worst = std::max(worst, slack[i]);
+        }
       }
     if (!any) {
       result.rounds = round;

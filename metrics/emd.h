@@ -8,7 +8,7 @@
 // and v_j = -p_j are feasible duals, so no matching costs less than sum(u) + sum(v), and
 //   gap_bound = sum_i [c_i,m(i) + p_m(i) - min_j (c_ij + p_j)]  >=  total - optimum.
 // Rows where a pair outside the graph breaks eps-complementary slackness get those pairs and bid again, so at
-// the end gap_bound <= n eps_final = tolerance x (diagonal of the two sets' bounding box). With the default
+// the end gap_bound <= 2 n eps_final = 2 x tolerance x (diagonal of the two sets' bounding box). With the default
 // tolerance 1e-9 the total is exact to far below the float precision of the input coordinates.
 //
 // approx: the approximate matcher of Fan et al. (PointSetGeneration's "approxmatch", used by DISN): 11 rounds of
