@@ -1,4 +1,5 @@
-// `sdfkit bench extract`: dense vs sparse (OpenVDB band) vs adaptive marching cubes, on an analytic sphere and
+// `sdfkit bench extract`: dense vs sparse (OpenVDB band) vs adaptive marching cubes (distance bound, and the
+// sign-change rule of Occupancy Networks' MISE for comparison), on an analytic sphere and
 // an analytic chair (union of box SDFs: seat, four thin legs, a back of two posts, a top rail and slats), at
 // several resolutions. Reports evaluations, median wall times, whether the meshes are identical, the Chamfer
 // distance between them and their distance to the analytic surface. Results: docs/benchmarks/extract.md.
@@ -101,7 +102,7 @@ std::function<int()> setup_bench_extract(CLI::App& app) {
     const std::vector<BoxPart> parts = chair_parts();
     Json rows = Json::array();
     if (!o->json)
-      std::printf("%-7s %5s %-9s %12s %8s %10s %10s %10s %9s %11s %12s\n", "shape", "res", "method", "evaluations",
+      std::printf("%-7s %5s %-10s %12s %8s %10s %10s %10s %9s %11s %12s\n", "shape", "res", "method", "evaluations",
                   "eval %", "eval s", "mc s", "total s", "identical", "CD x1000", "mean |sdf|");
     for (const std::string& shape : o->shapes) {
       std::function<double(const Vec3&)> sdf;
@@ -147,6 +148,16 @@ std::function<int()> setup_bench_extract(CLI::App& app) {
           adaptive = adaptive_extract(field, s);
           t_adaptive.push_back(seconds_since(t0));
         }
+        // For comparison: the same refinement with Occupancy Networks' sign-change rule (MISE).
+        std::vector<double> t_mise;
+        ExtractResult mise;
+        ExtractSettings ms = s;
+        ms.refine = RefineRule::kSignChange;
+        for (int r = 0; r < o->runs; ++r) {
+          t0 = Clock::now();
+          mise = adaptive_extract(field, ms);
+          t_mise.push_back(seconds_since(t0));
+        }
         // Distances: between results (vertices), and of each to the analytic surface (area samples).
         auto cd_to_dense = [&](const Mesh& m) {
           if (m.V.rows() == 0 || dense.V.rows() == 0) return std::nan("");
@@ -172,11 +183,13 @@ std::function<int()> setup_bench_extract(CLI::App& app) {
             {"sparse", double(band.active_voxels()), std::nan(""), median(t_sparse), median(t_sparse), &sparse,
              same_mesh(sparse, dense, 1e-9 * voxel)},
             {"adaptive", double(adaptive.evaluations), std::nan(""), std::nan(""), adaptive_total, &adaptive.mesh,
-             same_mesh(adaptive.mesh, dense, 0.0)}};
+             same_mesh(adaptive.mesh, dense, 0.0)},
+            {"signchange", double(mise.evaluations), std::nan(""), std::nan(""), median(t_mise), &mise.mesh,
+             same_mesh(mise.mesh, dense, 0.0)}};
         for (const Row& row : table) {
           const double cd = cd_to_dense(*row.mesh), err = surface_error(*row.mesh);
           if (!o->json)
-            std::printf("%-7s %5d %-9s %12.0f %7.2f%% %10.4f %10.4f %10.4f %9s %11.3g %12.3g\n", shape.c_str(), res,
+            std::printf("%-7s %5d %-10s %12.0f %7.2f%% %10.4f %10.4f %10.4f %9s %11.3g %12.3g\n", shape.c_str(), res,
                         row.method, row.evaluations, 100.0 * row.evaluations / dense_evals, row.eval_s, row.mc_s,
                         row.total_s, row.identical ? "yes" : "NO", cd, err);
           Json j = {{"shape", shape},
@@ -194,6 +207,11 @@ std::function<int()> setup_bench_extract(CLI::App& app) {
           if (std::isfinite(row.eval_s)) j["eval_seconds_median"] = row.eval_s;
           if (std::isfinite(row.mc_s)) j["mc_seconds_median"] = row.mc_s;
           if (std::string(row.method) == "sparse") j["band_build_seconds"] = band_build;
+          if (std::string(row.method) == "signchange") {
+            j["level_cells"] = mise.level_cells;
+            j["level_evaluations"] = mise.level_evaluations;
+            j["area_ratio_to_dense"] = surface_area(mise.mesh) / surface_area(dense);
+          }
           if (std::string(row.method) == "adaptive") {
             j["level_cells"] = adaptive.level_cells;
             j["level_evaluations"] = adaptive.level_evaluations;

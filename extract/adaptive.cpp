@@ -194,22 +194,39 @@ ExtractResult adaptive_extract(const BatchField& field, const ExtractSettings& s
     for (int j = 0; j < n; j += ratio)
       for (int i = 0; i < n; i += ratio) cells.push_back({i, j, k});
   if (ratio == 1) final_cells = cells;
+  const bool sign_change = s.refine == RefineRule::kSignChange;
   for (int size = ratio; size >= 2; size /= 2) {
     const int h = size / 2;
-    for (const Cell& c : cells) eval.request(c.i + h, c.j + h, c.k + h);
+    for (const Cell& c : cells) {
+      if (!sign_change) {
+        eval.request(c.i + h, c.j + h, c.k + h);
+        continue;
+      }
+      for (int corner = 0; corner < mc::kCorners; ++corner)
+        eval.request(c.i + size * (corner & 1), c.j + size * ((corner >> 1) & 1), c.k + size * ((corner >> 2) & 1));
+    }
     r.level_cells.push_back(static_cast<long>(cells.size()));
     r.level_evaluations.push_back(eval.flush());
     // Half-diagonal of the cell, times the safety factor, with a relative margin that covers float storage.
     const double bound = s.safety * 0.5 * std::sqrt(3.0) * size * voxel * (1.0 + 1e-6);
+    auto may_hold_surface = [&](const Cell& c, bool at_boundary) {
+      if (!sign_change) {
+        const double centre = store.get(c.i + h, c.j + h, c.k + h);
+        // A cell on the box boundary also holds the cap when anything inside it is inside: drop it only when
+        // it is surely outside.
+        return at_boundary ? centre <= bound : std::abs(centre) <= bound;
+      }
+      int inside = 0;
+      for (int corner = 0; corner < mc::kCorners; ++corner)
+        inside += store.get(c.i + size * (corner & 1), c.j + size * ((corner >> 1) & 1),
+                            c.k + size * ((corner >> 2) & 1)) < 0 ? 1 : 0;
+      return (inside > 0 && inside < mc::kCorners) || (at_boundary && inside > 0);
+    };
     next.clear();
     for (const Cell& c : cells) {
-      const double centre = store.get(c.i + h, c.j + h, c.k + h);
       const bool at_boundary = s.close_boundary && (c.i == 0 || c.j == 0 || c.k == 0 || c.i + size == n ||
                                                     c.j + size == n || c.k + size == n);
-      // A cell on the box boundary also holds the cap when anything inside it is inside: drop it only when
-      // it is surely outside.
-      const bool keep = at_boundary ? centre <= bound : std::abs(centre) <= bound;
-      if (!keep) continue;
+      if (!may_hold_surface(c, at_boundary)) continue;
       for (int dz = 0; dz < 2; ++dz)
         for (int dy = 0; dy < 2; ++dy)
           for (int dx = 0; dx < 2; ++dx) {

@@ -23,6 +23,13 @@ namespace sdfkit {
 /// at most max_batch points, from one thread at a time (the functor may parallelise inside).
 using BatchField = std::function<void(const Points& points, Eigen::VectorXd& values)>;
 
+/// How adaptive_extract decides that a cell may hold the surface.
+enum class RefineRule {
+  kDistanceBound,  ///< |f(centre) - iso| <= safety * half-diagonal (default; keeps thin parts)
+  kSignChange,     ///< the cell's 8 corner values straddle iso (Occupancy Networks' MISE rule; for comparison:
+                   ///< parts thinner than a coarse cell that miss every coarse grid point are lost)
+};
+
 struct ExtractSettings {
   /// Final grid points per axis (cells = resolution - 1), e.g. 65, 129, 257.
   int resolution = 129;
@@ -40,6 +47,8 @@ struct ExtractSettings {
   int max_batch = 65536;
   /// Points beyond the box count as outside, so surfaces that leave the box are capped and stay closed.
   bool close_boundary = true;
+  /// Refinement test of adaptive_extract.
+  RefineRule refine = RefineRule::kDistanceBound;
 };
 
 struct ExtractResult {

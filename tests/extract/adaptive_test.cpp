@@ -76,6 +76,20 @@ TEST_CASE("a plate thinner than a coarse cell but thicker than a final cell surv
   CHECK(euler_characteristic(adaptive.mesh) == 2);
   CHECK(signed_volume(adaptive.mesh) == doctest::Approx(1.0 * 0.8 * 2.5 * h).epsilon(0.1));
   CHECK(adaptive.evaluations < dense.evaluations / 10);
+  // The sign-change rule (MISE) sees no inside coarse corner and loses the whole plate.
+  s.refine = RefineRule::kSignChange;
+  const ExtractResult mise = adaptive_extract(plate, s);
+  CHECK(mise.mesh.F.rows() == 0);
+  CHECK(mise.level_cells.front() == 8 * 8 * 8);
+}
+
+TEST_CASE("sign-change refinement agrees with dense on a fat shape") {
+  const BatchField sphere = pointwise([](const Vec3& p) { return sphere_sdf(p, Vec3(0.01, 0.02, -0.03), 0.6); });
+  ExtractSettings s = settings(65, 9);
+  s.refine = RefineRule::kSignChange;
+  const ExtractResult mise = adaptive_extract(sphere, s);
+  CHECK(identical(mise.mesh, dense_extract(sphere, s).mesh));
+  CHECK(mise.evaluations < 65L * 65 * 65 / 3);
 }
 
 TEST_CASE("evaluation count at 257^3 is a few percent of dense (without running dense)") {
