@@ -8,7 +8,7 @@ namespace sdfkit::synth {
 
 // ------------------------------------------------------------------------------------------------ car
 SynthShape make_car(Gen& g) {
-  const int kind = g.choose({0.3, 0.2, 0.2, 0.15, 0.15});  // sedan, hatchback, suv, pickup, sports
+  const int kind = g.choose({0.27, 0.18, 0.18, 0.13, 0.12, 0.12});  // sedan, hatchback, suv, pickup, sports, van
   double L = g.u(4.0, 5.0), W = g.u(1.65, 1.95);
   double body_h = g.u(0.45, 0.65), clear = g.u(0.12, 0.22), cabin_h = g.u(0.4, 0.55);
   if (kind == 1) L = g.u(3.5, 4.3);
@@ -22,25 +22,56 @@ SynthShape make_car(Gen& g) {
     body_h = g.u(0.4, 0.5);
     cabin_h = g.u(0.3, 0.4);
   }
+  if (kind == 5) {
+    L = g.u(4.4, 5.2);
+    clear = g.u(0.15, 0.22);
+    body_h = g.u(0.55, 0.7);
+    cabin_h = g.u(0.75, 1.0);
+  }
   const Vec3f paint = g.pick(palette::paint);
   const Vec3f glass = g.pick(palette::dark);
   const Vec3f tyre = Vec3f(0.06f, 0.06f, 0.06f);
   const Vec3f chrome = g.pick(palette::metal);
   const double wr = g.u(0.3, 0.4);  // wheel radius
-  const double y_body = clear + body_h / 2;
-  // Lower body: a rounded box with a sloped nose made by a second, lower front block.
-  const double rad = g.u(0.05, 0.2);
-  g.add("body", make_rounded_box(Vec3(0, y_body, 0), Vec3(W / 2, body_h / 2, L / 2), rad), paint);
+  // Lower body: a loft of rounded-rectangle (superellipse) sections from the tail to the nose, the bonnet
+  // sloping down towards the nose and the tail slightly lower than the middle.
+  {
+    const double nose_len = g.u(0.12, 0.25), nose_drop = g.u(0.5, 0.8), tail_drop = g.u(0.7, 0.95);
+    const double squareness = g.u(3.0, 6.0);
+    const std::vector<double> stations = {0.0, 0.03, 0.1, 0.3, 0.5, 0.7, 1 - nose_len, 1 - nose_len / 2, 0.97, 1.0};
+    std::vector<std::vector<Vec3>> rings;
+    for (const double st : stations) {
+      double top = 1.0;
+      if (st < 0.1) top = tail_drop + (1 - tail_drop) * st / 0.1;
+      if (st > 1 - nose_len) top = 1 - (1 - nose_drop) * (st - (1 - nose_len)) / nose_len;
+      const double edge = std::min(st, 1 - st);
+      const double bottom = clear + (edge < 0.03 ? 0.06 * (1 - edge / 0.03) : 0.0);
+      const double w = 0.5 * W * (edge < 0.1 ? 0.9 + edge : 1.0);
+      const double y0 = bottom, y1 = clear + body_h * top;
+      std::vector<Vec3> ring;
+      const int M = 20;
+      for (int k = 0; k < M; ++k) {
+        const double a = 2 * M_PI * k / M;
+        const double c = std::cos(a), sn = std::sin(a);
+        const double x = w * (c < 0 ? -1 : 1) * std::pow(std::abs(c), 2 / squareness);
+        const double y = 0.5 * (y0 + y1) + 0.5 * (y1 - y0) * (sn < 0 ? -1 : 1) * std::pow(std::abs(sn), 2 / squareness);
+        ring.emplace_back(x, y, -L / 2 + L * st);
+      }
+      rings.push_back(ring);
+    }
+    g.add("body", make_loft(rings), paint);
+  }
   // Cabin as a hexahedron of glass, framed by pillars and a roof panel.
   const double ctop = clear + body_h + cabin_h;
   double cz0 = -L * g.u(0.3, 0.42), cz1 = L * g.u(0.0, 0.18);  // cabin base, rear and front
-  if (kind == 1 || kind == 2) cz0 = -L / 2 + g.u(0.1, 0.25);
+  if (kind == 1 || kind == 2 || kind == 5) cz0 = -L / 2 + g.u(0.1, 0.25);
+  if (kind == 5) cz1 = L * g.u(0.2, 0.32);
   if (kind == 3) {
     cz0 = -L * 0.1;
     cz1 = L * 0.15;
   }
-  const double rake_f = cabin_h * g.u(0.9, 1.8), rake_r = (kind == 1 || kind == 2) ? cabin_h * g.u(0.1, 0.3)
-                                                                                  : cabin_h * g.u(0.6, 1.4);
+  const double rake_f = cabin_h * (kind == 5 ? g.u(0.4, 0.9) : g.u(0.9, 1.8));
+  const double rake_r = (kind == 1 || kind == 2 || kind == 5) ? cabin_h * g.u(0.05, 0.3) : cabin_h * g.u(0.6, 1.4);
   const double tz0 = cz0 + rake_r, tz1 = std::max(tz0 + 0.3, cz1 - rake_f);
   const double wb = W / 2 - 0.05, wt = W / 2 - g.u(0.12, 0.25);
   const double ybase = clear + body_h - 0.03;
@@ -105,7 +136,7 @@ SynthShape make_car(Gen& g) {
     const Vec3f lc = sz > 0 ? Vec3f(0.95f, 0.95f, 0.85f) : Vec3f(0.8f, 0.05f, 0.05f);
     for (const double sx : {-1.0, 1.0})
       g.add(sz > 0 ? "headlight" : "taillight",
-            make_ellipsoid(Vec3(sx * (W / 2 - 0.22), clear + body_h * 0.65, sz * (L / 2 - 0.02)),
+            make_ellipsoid(Vec3(sx * (W / 2 - 0.22), clear + body_h * 0.42, sz * (L / 2 - 0.02)),
                            Vec3(0.13, 0.06, 0.05), Mat3::Identity(), 3),
             lc);
   }
