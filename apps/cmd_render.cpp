@@ -42,6 +42,7 @@ std::function<int()> setup_render(CLI::App& app) {
   app.add_flag("--depth", o->views.render.depth, "also write NN_depth.exr (z_cam, float, 0 = background)");
   app.add_flag("--normals", o->views.render.normals,
                "also write NN_normal.exr (camera-frame normals: x right, y down, z forward; 0 = background)");
+  app.add_flag("--albedo", o->views.render.albedo, "also write NN_albedo.png (unlit colour, RGB 8-bit)");
   app.add_option("--occlude", o->occlude,
                  "remove the left/right half of the object, or random rectangles (rect), from NN.png and write "
                  "NN_mask.png (white = removed)")

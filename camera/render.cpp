@@ -330,6 +330,7 @@ RenderResult MeshRenderer::render(const Camera& cam) const {
   out.rgba = Image(cam.width, cam.height, 4, 0.0f);
   if (st.depth) out.depth = Image(cam.width, cam.height, 1, 0.0f);
   if (st.normals) out.normals = Image(cam.width, cam.height, 3, 0.0f);
+  if (st.albedo) out.albedo = Image(cam.width, cam.height, 3, 0.0f);
   const Eigen::Matrix3d Kinv = cam.K.inverse();
   const bool colored = !C_.empty();
   const int s = v.s, centre = s / 2;
@@ -353,7 +354,7 @@ RenderResult MeshRenderer::render(const Camera& cam) const {
   tbb::parallel_for(tbb::blocked_range<int>(0, cam.height, 8), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (int x = 0; x < cam.width; ++x) {
-        float acc[3] = {0, 0, 0};
+        float acc[3] = {0, 0, 0}, alb[3] = {0, 0, 0};
         int covered = 0;
         for (int b = 0; b < s; ++b) {
           const size_t row = static_cast<size_t>(y * s + b) * v.W;
@@ -375,13 +376,18 @@ RenderResult MeshRenderer::render(const Camera& cam) const {
                 albedo += wk * Eigen::Vector3f(col[0], col[1], col[2]);
               }
             }
-            for (int k = 0; k < 3; ++k) acc[k] += std::min(1.0f, albedo[k] * diffuse + spec);
+            for (int k = 0; k < 3; ++k) {
+              acc[k] += std::min(1.0f, albedo[k] * diffuse + spec);
+              alb[k] += albedo[k];
+            }
           }
         }
         if (covered == 0) continue;
         float* px = &out.rgba.at(x, y, 0);
         for (int k = 0; k < 3; ++k) px[k] = acc[k] / static_cast<float>(covered);
         px[3] = static_cast<float>(covered) * inv_n;
+        if (st.albedo)
+          for (int k = 0; k < 3; ++k) out.albedo.at(x, y, k) = alb[k] / static_cast<float>(covered);
         if (st.depth || st.normals) {
           const int f = fbuf[static_cast<size_t>(y * s + centre) * v.W + x * s + centre];
           if (f < 0) continue;

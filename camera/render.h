@@ -44,12 +44,14 @@ struct RenderSettings {
   double near = 1e-3;       ///< near clipping plane (z_cam)
   bool depth = false;       ///< also produce the depth map
   bool normals = false;     ///< also produce the normal map
+  bool albedo = false;      ///< also produce the albedo (unlit colour) map
 };
 
 struct RenderResult {
   Image rgba;     ///< 4 channels, straight alpha, values in [0, 1]
   Image depth;    ///< 1 channel z_cam, 0 = background (empty unless settings.depth)
   Image normals;  ///< 3 channels camera-frame unit normals, 0 = background (empty unless settings.normals)
+  Image albedo;   ///< 3 channels unlit colour, mean over covered samples, 0 = background (settings.albedo)
   long rasterised_triangles = 0;  ///< triangles that covered at least one sample's bounding box
 };
 

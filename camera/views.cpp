@@ -62,15 +62,17 @@ std::vector<Camera> render_view_set(const Mesh& normalized_mesh, const std::stri
       if (!r.depth.empty())
         for (size_t i = 0; i < mask.data.size(); ++i)
           if (mask.data[i] > 0) r.depth.data[i] = 0.0f;
-      if (!r.normals.empty())
-        for (size_t i = 0; i < mask.data.size(); ++i)
-          if (mask.data[i] > 0) r.normals.data[3 * i] = r.normals.data[3 * i + 1] = r.normals.data[3 * i + 2] = 0.0f;
+      for (Image* img : {&r.normals, &r.albedo})
+        if (!img->empty())
+          for (size_t i = 0; i < mask.data.size(); ++i)
+            if (mask.data[i] > 0) img->data[3 * i] = img->data[3 * i + 1] = img->data[3 * i + 2] = 0.0f;
       write_image(base + "_mask.png", mask);
       cam_json["occlusion"] = to_string(settings.occlusion.mode);
     }
     write_image(base + ".png", r.rgba);
     if (!r.depth.empty()) write_image(base + "_depth.exr", r.depth);
     if (!r.normals.empty()) write_image(base + "_normal.exr", r.normals);
+    if (!r.albedo.empty()) write_image(base + "_albedo.png", r.albedo);
     write_json(base + ".json", cam_json);
   });
   return cams;

@@ -25,7 +25,7 @@ struct ViewSetSettings {
   double azimuth_min = 0, azimuth_max = 360;
   double elevation_min = 25, elevation_max = 30;
   double distance_min = 2.45, distance_max = 3.0;
-  RenderSettings render;         ///< render.depth / render.normals also write NN_depth.exr / NN_normal.exr
+  RenderSettings render;  ///< render.depth / .normals / .albedo also write NN_depth.exr / NN_normal.exr / NN_albedo.png
   OcclusionSettings occlusion;   ///< mode != none: NN.png is occluded and NN_mask.png (white = removed) written
 };
 
@@ -40,7 +40,7 @@ std::vector<Camera> view_set_cameras(const ViewSetSettings& settings, uint64_t s
 std::string view_name(int index, int views);
 
 /// Renders the view set of a mesh already in the object frame (unit sphere). Writes, per view k with name NN:
-/// NN.png (RGBA 8-bit), optional NN_depth.exr / NN_normal.exr / NN_mask.png, and NN.json last (camera_to_json,
+/// NN.png (RGBA 8-bit), optional NN_depth.exr / NN_normal.exr / NN_albedo.png / NN_mask.png, and NN.json last (camera_to_json,
 /// plus "occlusion": mode when occluded), each file atomically, so an NN.json present means view NN is complete.
 /// Views are rendered in parallel; the bytes do not depend on the thread count. Returns the cameras.
 std::vector<Camera> render_view_set(const Mesh& normalized_mesh, const std::string& views_dir,

@@ -106,7 +106,13 @@ TEST_CASE("render: a cube seen along an axis shows exactly one face") {
   RenderSettings st;
   st.depth = true;
   st.normals = true;
+  st.albedo = true;
   const RenderResult res = render(cube, look_at(0, 0, d), st);
+  // Albedo is the unlit colour: the default albedo inside, 0 outside.
+  for (int k = 0; k < 3; ++k) {
+    CHECK(res.albedo.at(68, 68, k) == doctest::Approx(st.default_color[k]));
+    CHECK(res.albedo.at(2, 2, k) == 0.0f);
+  }
   int fg = 0;
   for (int y = 0; y < 137; ++y)
     for (int x = 0; x < 137; ++x) {
