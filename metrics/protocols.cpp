@@ -109,8 +109,9 @@ Json EvalResult::to_json() const {
     values[m.key] = m.value ? Json(*m.value) : Json(nullptr);
     if (!m.note.empty()) notes[m.key] = m.note;
   }
-  Json j = {{"protocol", to_string(protocol)}, {"seed", seed},       {"samples", samples},
-            {"emd_method", emd_method},        {"seconds", seconds}, {"metrics", values}};
+  Json j = {{"protocol", to_string(protocol)}, {"seed", seed}, {"samples", samples}, {"seconds", seconds},
+            {"metrics", values}};
+  j["emd_method"] = emd_method.empty() ? Json(nullptr) : Json(emd_method);
   if (!notes.empty()) j["notes"] = notes;
   return j;
 }
