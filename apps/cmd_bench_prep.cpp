@@ -109,7 +109,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
     const fs::path tmp = fs::temp_directory_path() / ("sdfkit_bench_prep_" + std::to_string(::getpid()));
     Json results = Json::array();
     std::printf("%-22s %7s %8s %8s %8s %8s %10s %8s %8s %9s %9s %9s %9s %9s %8s\n", "shape", "tris", "1thr s",
-                "1thr cpu", "2thr s", "2thr cpu", "voxels", "% dense", "grid MB", "dense MB", "dense s", "dense cpu",
+                "1thr cpu", "2thr s", "2thr cpu", "voxels", "% 257^3", "grid MB", "257^3 MB", "dense s", "dense cpu",
                 "mean err", "max err", "sign ok");
     for (const auto& sh : shapes) {
       PrepareSettings s;
@@ -178,7 +178,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
       }
 
       // Dense baseline: exact distance + winding-number sign at every point of the dense grid (2 threads).
-      double dense_s = 0, dense_cpu = 0, dense_mb = dense_voxels * 4.0 / 1e6;
+      double dense_s = 0, dense_cpu = 0;
       if (!o->no_dense) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
         const auto t0 = Clock::now();
@@ -199,10 +199,13 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
         dense_cpu = cpu_seconds() - cpu0;
       }
       const double m1 = median(t1), m2 = median(t2);
-      const double pct = 100.0 * static_cast<double>(st.active_voxels) / static_cast<double>(dense_voxels);
+      // Compare with the dense lattice at the grid's own voxel size (257^3 by default), whatever --dense-res is.
+      const long side = std::lround(2.4 / s.grid.voxel_size) + 1;
+      const long lattice = side * side * side;
+      const double pct = 100.0 * static_cast<double>(st.active_voxels) / static_cast<double>(lattice);
       std::printf("%-22s %7ld %8.3f %8.3f %8.3f %8.3f %10ld %7.2f%% %8.2f %9.1f %9.2f %9.2f %9.5f %9.5f %7.2f%%\n",
                   sh.name.c_str(), static_cast<long>(sh.mesh.F.rows()), m1, median(c1), m2, median(c2),
-                  st.active_voxels, pct, st.grid_bytes / 1e6, dense_mb, dense_s, dense_cpu, mean_err, max_err,
+                  st.active_voxels, pct, st.grid_bytes / 1e6, lattice * 4e-6, dense_s, dense_cpu, mean_err, max_err,
                   100.0 * sign_ok / std::max<double>(1, static_cast<double>(P.rows())));
       std::fflush(stdout);
       results.push_back({{"shape", sh.name},
@@ -216,6 +219,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
                          {"dense_cpu_seconds", dense_cpu},
                          {"active_voxels", st.active_voxels},
                          {"dense_voxels", dense_voxels},
+                         {"lattice_voxels", lattice},
                          {"grid_bytes", st.grid_bytes},
                          {"dense_bytes", dense_voxels * 4},
                          {"dense_seconds_2_threads", dense_s},
