@@ -1,6 +1,9 @@
 #include "metrics/chamfer.h"
 
 #include "core/error.h"
+#include "metrics/sampling.h"
+
+#include <tbb/parallel_invoke.h>
 
 #include <cmath>
 
@@ -10,9 +13,14 @@ double f_from_pr(double precision, double recall) {
   return precision + recall > 0 ? 2 * precision * recall / (precision + recall) : 0.0;
 }
 
-PairEvaluator::PairEvaluator(const Points& pred, const Points& gt) : pred_(pred, "prediction"), gt_(gt, "ground truth") {
-  gt_.nearest(pred_.points(), p2g_index_, p2g_sq_);
-  pred_.nearest(gt_.points(), g2p_index_, g2p_sq_);
+PairEvaluator::PairEvaluator(const Points& pred, const Points& gt) {
+  require_finite_points(pred, "prediction");
+  require_finite_points(gt, "ground truth");
+  tbb::parallel_invoke([&] { pred_ = std::make_unique<KdTree>(pred, "prediction"); },
+                       [&] { gt_ = std::make_unique<KdTree>(gt, "ground truth"); });
+  const std::vector<uint32_t> pred_order = pred_->leaf_order(), gt_order = gt_->leaf_order();
+  gt_->nearest(pred_->points(), p2g_index_, p2g_sq_, &pred_order);
+  pred_->nearest(gt_->points(), g2p_index_, g2p_sq_, &gt_order);
 }
 
 ChamferResult PairEvaluator::chamfer() const {

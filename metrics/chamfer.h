@@ -10,6 +10,7 @@
 #include "core/types.h"
 #include "metrics/kdtree.h"
 
+#include <memory>
 #include <vector>
 
 namespace sdfkit::metrics {
@@ -45,8 +46,8 @@ class PairEvaluator {
  public:
   PairEvaluator(const Points& pred, const Points& gt);
 
-  [[nodiscard]] const KdTree& pred_tree() const { return pred_; }
-  [[nodiscard]] const KdTree& gt_tree() const { return gt_; }
+  [[nodiscard]] const KdTree& pred_tree() const { return *pred_; }
+  [[nodiscard]] const KdTree& gt_tree() const { return *gt_; }
   /// For every predicted point, its nearest ground-truth point and the squared distance to it.
   [[nodiscard]] const Eigen::VectorXi& pred_to_gt_index() const { return p2g_index_; }
   [[nodiscard]] const Eigen::VectorXd& pred_to_gt_sq() const { return p2g_sq_; }
@@ -59,7 +60,7 @@ class PairEvaluator {
   [[nodiscard]] std::vector<FScore> fscores(const std::vector<double>& thresholds) const;
 
  private:
-  KdTree pred_, gt_;
+  std::unique_ptr<KdTree> pred_, gt_;  // built concurrently
   Eigen::VectorXi p2g_index_, g2p_index_;
   Eigen::VectorXd p2g_sq_, g2p_sq_;
 };

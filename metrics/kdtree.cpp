@@ -63,17 +63,39 @@ std::pair<int, double> KdTree::nearest(const Vec3& q) const {
   return {static_cast<int>(index), d2};
 }
 
-void KdTree::nearest(const Points& queries, Eigen::VectorXi& index, Eigen::VectorXd& squared_distance) const {
+void KdTree::nearest(const Points& queries, Eigen::VectorXi& index, Eigen::VectorXd& squared_distance,
+                     const std::vector<uint32_t>* order) const {
   const Eigen::Index n = queries.rows();
+  require(order == nullptr || static_cast<Eigen::Index>(order->size()) == n, "KdTree::nearest: order size mismatch");
   index.resize(n);
   squared_distance.resize(n);
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, 1024), [&](const tbb::blocked_range<Eigen::Index>& r) {
-    for (Eigen::Index i = r.begin(); i != r.end(); ++i) {
-      const auto [j, d2] = nearest(queries.row(i).transpose());
-      index(i) = j;
+  constexpr Eigen::Index block = 256;
+  const Eigen::Index blocks = (n + block - 1) / block;
+  tbb::parallel_for(Eigen::Index(0), blocks, [&](Eigen::Index b) {
+    uint32_t prev = 0;
+    bool have_prev = false;
+    for (Eigen::Index k = b * block; k < std::min(n, (b + 1) * block); ++k) {
+      const Eigen::Index i = order != nullptr ? static_cast<Eigen::Index>((*order)[k]) : k;
+      const double q[3] = {queries(i, 0), queries(i, 1), queries(i, 2)};
+      uint32_t idx = 0;
+      double d2 = 0;
+      nanoflann::KNNResultSet<double, uint32_t> result(1);
+      result.init(&idx, &d2);
+      if (have_prev) {
+        const double dx = q[0] - points_(prev, 0), dy = q[1] - points_(prev, 1), dz = q[2] - points_(prev, 2);
+        result.addPoint(dx * dx + dy * dy + dz * dz, prev);
+      }
+      impl_->tree.findNeighbors(result, q, nanoflann::SearchParams());
+      index(i) = static_cast<int>(idx);
       squared_distance(i) = d2;
+      prev = idx;
+      have_prev = true;
     }
   });
+}
+
+std::vector<uint32_t> KdTree::leaf_order() const {
+  return std::vector<uint32_t>(impl_->tree.vAcc.begin(), impl_->tree.vAcc.end());
 }
 
 std::vector<std::pair<int, double>> KdTree::knn(const Vec3& q, int k) const {

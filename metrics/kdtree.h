@@ -24,8 +24,14 @@ class KdTree {
   /// Index of the nearest point and its squared distance (exact; among equidistant points, whichever the tree
   /// meets first, always the same one for the same data).
   [[nodiscard]] std::pair<int, double> nearest(const Vec3& q) const;
-  /// Nearest point of every query row (parallel over queries; each result depends only on its query).
-  void nearest(const Points& queries, Eigen::VectorXi& index, Eigen::VectorXd& squared_distance) const;
+  /// Nearest point of every query row, in parallel. Queries are visited in `order` when given (e.g. another
+  /// tree's leaf_order(): neighbouring queries one after the other) in fixed blocks of 256; within a block each
+  /// search starts from the previous query's neighbour as its first candidate, which prunes most of the tree.
+  /// Distances are exact either way; results do not depend on the thread count.
+  void nearest(const Points& queries, Eigen::VectorXi& index, Eigen::VectorXd& squared_distance,
+               const std::vector<uint32_t>* order = nullptr) const;
+  /// Indices of the points in the order of the tree's leaves (spatially coherent).
+  [[nodiscard]] std::vector<uint32_t> leaf_order() const;
   /// The k nearest points of q (k clamped to the size), closest first: (index, squared distance).
   [[nodiscard]] std::vector<std::pair<int, double>> knn(const Vec3& q, int k) const;
 

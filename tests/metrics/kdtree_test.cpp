@@ -36,6 +36,16 @@ TEST_CASE("KD-tree nearest and knn agree with brute force") {
     for (int k = 0; k < 16; ++k) CHECK(nn[k].second == doctest::Approx(all[k]).epsilon(1e-12));
   }
   CHECK(tree.knn(Vec3::Zero(), 5000).size() == 3000);
+  // ordered queries (warm-started from the previous neighbour) give the same distances
+  const KdTree qtree(queries);
+  const std::vector<uint32_t> order = qtree.leaf_order();
+  Eigen::VectorXi idx2;
+  Eigen::VectorXd d2b;
+  tree.nearest(queries, idx2, d2b, &order);
+  CHECK(d2b == d2);
+  std::vector<uint32_t> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  for (uint32_t i = 0; i < sorted.size(); ++i) CHECK(sorted[i] == i);
 }
 
 TEST_CASE("KD-tree survives a move and gives the same answers with one or two threads") {
