@@ -1,0 +1,118 @@
+// CLI-level tests of `sdfkit recon` with the shipped models and examples (data/models, data/examples).
+#include "camera/image.h"
+#include "core/files.h"
+#include "core/mesh_io.h"
+#include "metrics/protocols.h"
+
+#include <doctest/doctest.h>
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <utility>
+
+using namespace sdfkit;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kSource = SDFKIT_SOURCE_DIR;
+const std::string kExe = SDFKIT_EXE;
+
+struct Run {
+  int code = -1;
+  std::string err, out;
+};
+
+Run run(const std::string& args) {
+  const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli";
+  fs::create_directories(dir);
+  const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
+  const int status = std::system((kExe + " " + args + " > " + out + " 2> " + err).c_str());
+  Run r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = fs::exists(out) ? read_file(out) : "";
+  r.err = fs::exists(err) ? read_file(err) : "";
+  return r;
+}
+
+/// Every undirected edge is used by exactly two faces, in opposite directions (closed, consistently oriented).
+bool closed_and_oriented(const Mesh& m) {
+  std::map<std::pair<int, int>, int> directed;
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) ++directed[{m.F(f, k), m.F(f, (k + 1) % 3)}];
+  for (const auto& [e, n] : directed) {
+    if (n != 1) return false;
+    const auto it = directed.find({e.second, e.first});
+    if (it == directed.end() || it->second != 1) return false;
+  }
+  return !directed.empty();
+}
+
+double iou_of(const std::string& pred, const std::string& gt) {
+  metrics::ProtocolSettings ps;
+  ps.with_emd = false;
+  return metrics::evaluate(read_mesh(pred), read_mesh(gt), ps).get("iou").value_or(0.0) / 100.0;
+}
+
+bool have_models() {
+  return fs::exists(kSource + "/data/models/sdf.ckpt") && fs::exists(kSource + "/data/models/pose.ckpt");
+}
+
+}  // namespace
+
+TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5, closed mesh; the true camera is as good") {
+  REQUIRE_MESSAGE(have_models(), "the shipped models data/models/sdf.ckpt and pose.ckpt are missing");
+  const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli" / "example";
+  fs::remove_all(dir);
+  const std::string img = kSource + "/data/examples/car_0000.png";
+  const std::string gt = kSource + "/data/examples/gt/car_0000.ply";
+  const std::string est = (dir / "est.obj").string(), cam = (dir / "cam.obj").string();
+  Run r = run("recon " + img + " -o " + est + " --res 65 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(fs::exists((dir / "est.preview.png").string()));
+  const Json j = Json::parse(r.out);
+  CHECK(j["camera_source"] == "estimated");
+  CHECK(j["evaluations"].get<long>() > 0);
+  CHECK(j["seconds"]["total"].get<double>() > 0);
+  r = run("recon " + img + " -o " + cam + " --res 65 --cam " + kSource + "/data/examples/car_0000.json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const Mesh m = read_mesh(est);
+  CHECK(closed_and_oriented(m));
+  const double iou_est = iou_of(est, gt), iou_cam = iou_of(cam, gt);
+  MESSAGE("IoU estimated camera " << iou_est << ", true camera " << iou_cam);
+  CHECK(iou_est > 0.5);
+  // "At least as good", up to 0.02 of IoU: the two runs differ only by the camera.
+  CHECK(iou_cam >= iou_est - 0.02);
+}
+
+TEST_CASE("recon refuses corrupt, empty and background-only images with one clear line and exit 1") {
+  REQUIRE(have_models());
+  const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli" / "bad";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string png = read_file(kSource + "/data/examples/chair_0003.png");
+  write_text_atomic((dir / "corrupt.png").string(), png.substr(0, png.size() / 2));
+  write_text_atomic((dir / "empty.png").string(), "");
+  write_image((dir / "background.png").string(), Image(137, 137, 4, 0.f));  // fully transparent
+  for (const char* name : {"corrupt.png", "empty.png", "background.png"}) {
+    CAPTURE(name);
+    const Run r = run("recon " + (dir / name).string() + " -o " + (dir / "out.obj").string() + " --res 33 --cam " +
+                      kSource + "/data/examples/chair_0003.json");
+    CHECK(r.code == 1);
+    CHECK(r.err.find(name) != std::string::npos);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK(!fs::exists(dir / "out.obj"));
+  }
+  // In a batch, the bad image does not stop the good one: exit 2, the good mesh is written.
+  fs::copy_file(kSource + "/data/examples/chair_0003.png", dir / "good.png");
+  fs::copy_file(kSource + "/data/examples/chair_0003.json", dir / "good.json");
+  fs::remove(dir / "corrupt.png");
+  fs::remove(dir / "empty.png");
+  const Run r = run("recon " + dir.string() + " -o " + (dir / "out").string() + " --res 33 --cam sidecar --no-preview");
+  CHECK(r.code == 2);
+  CHECK(fs::exists(dir / "out" / "good.obj"));
+  CHECK(!fs::exists(dir / "out" / "background.obj"));
+}

@@ -1,0 +1,170 @@
+#include "nets/sdf_train.h"
+
+#include "camera/camera.h"
+#include "camera/image.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/primitives.h"
+#include "core/random.h"
+#include "nets/checkpoint.h"
+
+#include <doctest/doctest.h>
+
+#include <filesystem>
+
+using namespace sdfkit;
+namespace fs = std::filesystem;
+
+namespace {
+
+const Vec3 kTorusCenter(0.05, -0.02, 0.0);
+constexpr double kR = 0.5, kr = 0.2;
+
+/// A one-shape prepared dataset of a torus: exact SDF samples (near-surface and uniform) and one view.
+fs::path make_torus_dataset(const std::string& name) {
+  const fs::path root = fs::temp_directory_path() / name;
+  fs::remove_all(root);
+  const fs::path dir = root / "ring" / "torus";
+  Rng rng(5);
+  MatrixXfR s(6000, 4);
+  int n = 0;
+  while (n < 6000) {
+    const Vec3 p(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+    const double d = torus_sdf(p, kTorusCenter, kR, kr);
+    if (n >= 2000 && std::abs(d) > 0.1) continue;  // 2000 uniform, then near-surface only
+    s.row(n++) << float(p.x()), float(p.y()), float(p.z()), float(d);
+  }
+  write_npy((dir / "samples.npy").string(), s);
+  const Camera cam = look_at(30, 25, 2.7);
+  write_camera((dir / "views" / "00.json").string(), cam);
+  Image img(137, 137, 4, 0.f);
+  for (int y = 30; y < 100; ++y)
+    for (int x = 20; x < 117; ++x) img.at(x, y, 0) = img.at(x, y, 3) = 1.f;
+  write_image((dir / "views" / "00.png").string(), img);
+  write_text_atomic((root / "train.lst").string(), "ring/torus\n");
+  return root;
+}
+
+SdfNetConfig small_config(SdfVariant v) {
+  SdfNetConfig c;
+  c.variant = v;
+  c.encoder_channels = {4, 6, 8};
+  c.extra_convs = 0;
+  c.global_features = 16;
+  c.point_mlp = {32, 64};
+  c.decoder = {64, 32};
+  c.one_stream_maps = 2;
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("train sdf overfits one shape: IoU > 0.95 on a grid against the exact torus") {
+  const fs::path root = make_torus_dataset("sdfkit_sdf_train_overfit");
+  SdfTrainSettings st;
+  st.data = root.string();
+  st.val_split = "";
+  st.out = (root / "m.ckpt").string();
+  st.net = small_config(SdfVariant::TwoStream);
+  st.steps = 600;
+  st.batch = 1;
+  st.points = 1024;
+  st.lr = 2e-3;
+  st.lr_min = 1e-4;
+  st.weight_decay = 0;
+  st.val_every = 600;
+  st.val_shapes = 1;
+  const SdfTrainResult r = train_sdf(st);
+  CHECK(r.steps == 600);
+  CHECK(fs::exists(r.csv));
+  CHECK(fs::exists(r.plot));
+  CHECK(r.val.sign_accuracy > 0.9);
+
+  const auto net = load_sdf_model(st.out);
+  DatasetSettings ds;
+  ds.root = root.string();
+  const Dataset data(ds);
+  const auto code = net->encode(data.input(0, 0).data(), data.camera(0, 0));
+  const int G = 40;
+  Points P(G * G * G, 3);
+  for (int i = 0, k = 0; i < G; ++i)
+    for (int j = 0; j < G; ++j)
+      for (int l = 0; l < G; ++l, ++k) P.row(k) << -0.8 + 1.6 * (i + 0.5) / G, -0.8 + 1.6 * (j + 0.5) / G,
+                                                  -0.8 + 1.6 * (l + 0.5) / G;
+  Eigen::VectorXd f;
+  net->field(code, P, f);
+  long inter = 0, uni = 0;
+  for (Eigen::Index k = 0; k < P.rows(); ++k) {
+    const bool gt = torus_sdf(P.row(k).transpose(), kTorusCenter, kR, kr) < 0.003;  // the 0 level is sdf 0.003
+    const bool pr = f[k] < 0;
+    inter += gt && pr;
+    uni += gt || pr;
+  }
+  const double iou = double(inter) / double(uni);
+  MESSAGE("overfit IoU " << iou);
+  CHECK(iou > 0.95);
+  fs::remove_all(root);
+}
+
+TEST_CASE("resumed training continues bit for bit") {
+  const fs::path root = make_torus_dataset("sdfkit_sdf_train_resume");
+  SdfTrainSettings st;
+  st.data = root.string();
+  st.val_split = "";
+  st.net = small_config(SdfVariant::OneStream);
+  st.batch = 2;
+  st.points = 64;
+  st.val_every = 3;
+  st.val_shapes = 1;
+  st.val_points = 64;
+  st.out = (root / "straight.ckpt").string();
+  st.steps = 6;
+  train_sdf(st);
+  st.out = (root / "split.ckpt").string();
+  st.steps = 3;
+  train_sdf(st);
+  st.steps = 6;
+  st.resume = true;
+  const SdfTrainResult r = train_sdf(st);
+  CHECK(r.start_step == 3);
+  const Checkpoint a = load_checkpoint((root / "straight.ckpt").string());
+  const Checkpoint b = load_checkpoint((root / "split.ckpt").string());
+  CHECK(a.block("params") == b.block("params"));
+  // A different configuration refuses to resume.
+  st.net.decoder = {16, 8};
+  CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  fs::remove_all(root);
+}
+
+TEST_CASE("a checkpoint of every variant loads back to the same predictions; damaged files are refused") {
+  const fs::path dir = fs::temp_directory_path() / "sdfkit_sdf_models";
+  fs::create_directories(dir);
+  Rng rng(3);
+  Eigen::VectorXf img(3 * 137 * 137);
+  for (Eigen::Index i = 0; i < img.size(); ++i) img[i] = static_cast<float>(rng.uniform());
+  PointsF pts(50, 3);
+  for (Eigen::Index i = 0; i < pts.size(); ++i) pts.data()[i] = static_cast<float>(rng.uniform(-0.8, 0.8));
+  const Camera cam = look_at(200, 28, 2.6);
+  for (SdfVariant v : {SdfVariant::TwoStream, SdfVariant::OneStream, SdfVariant::GlobalOnly, SdfVariant::Binary}) {
+    CAPTURE(to_string(v));
+    SdfNet net(small_config(v));
+    net.init(17);
+    const std::string path = (dir / (to_string(v) + ".ckpt")).string();
+    save_sdf_model(path, net, {{"note", "test"}});
+    Json training;
+    const auto back = load_sdf_model(path, &training);
+    CHECK(back->config().variant == v);
+    CHECK(training["note"] == "test");
+    Eigen::VectorXf a, b;
+    net.predict(net.encode(img.data(), cam), pts, a);
+    back->predict(back->encode(img.data(), cam), pts, b);
+    CHECK((a.array() == b.array()).all());
+    // Flip one byte in the payload: the checksum catches it.
+    std::string bytes = read_file(path);
+    bytes[bytes.size() - 100] ^= 0x20;
+    write_text_atomic(path, bytes);
+    CHECK_THROWS_AS(load_sdf_model(path), IoError);
+  }
+  CHECK_THROWS_AS(load_sdf_model((dir / "missing.ckpt").string()), IoError);
+  fs::remove_all(dir);
+}
