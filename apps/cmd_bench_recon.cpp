@@ -50,7 +50,9 @@ std::function<int()> setup_bench_recon(CLI::App& app) {
   app.add_option("--pose-model", o->pose_model, "pose network (with --cam est)")->capture_default_str();
   app.add_option("--cam", o->cam, "gt = the view's true camera, est = the pose network's estimate")
       ->capture_default_str();
-  app.add_option("--res", o->res, "effective resolutions (grid points per axis)")->capture_default_str();
+  app.add_option("--res", o->res, "effective resolutions (grid points per axis), comma-separated")
+      ->delimiter(',')
+      ->capture_default_str();
   app.add_option("--dense-max-res", o->dense_max, "run the dense baseline only up to this resolution")
       ->capture_default_str();
   app.add_option("--safety", o->safety, "safety factor of the adaptive extraction")->capture_default_str();

@@ -168,10 +168,13 @@ TEST_CASE("SDF network: the local-feature path is used and samples where the poi
   net.local_features(code, along, f2);
   for (int64_t i = 0; i < f1.size(); ++i) CHECK(f1[i] == doctest::Approx(f2[i]).epsilon(1e-4));
 
-  // 3. Zeroing the feature maps changes the output (the local stream reads them).
+  // 3. Zeroing the feature maps changes the output (the local stream reads them through their per-image 1x1
+  //    projections, which are what the point evaluation samples: zero those).
   Eigen::VectorXd before, after;
   net.predict(code, p, before);
   for (auto& m : code.maps) m.fill(0.0);
+  for (auto& stream : code.proj)
+    for (auto& m : stream) m.fill(0.0);
   net.predict(code, p, after);
   CHECK((before - after).cwiseAbs().maxCoeff() > 1e-6);
   // ... while for the global-only variant the maps are not read by the decoder at all.
@@ -180,6 +183,8 @@ TEST_CASE("SDF network: the local-feature path is used and samples where the poi
   auto gcode = g.encode(image.ptr(), cam);
   g.predict(gcode, p, before);
   for (auto& m : gcode.maps) m.fill(0.0);
+  CHECK(gcode.proj.size() == 1);
+  CHECK(gcode.proj[0].empty());
   g.predict(gcode, p, after);
   CHECK((before - after).cwiseAbs().maxCoeff() == 0.0);
 }
