@@ -166,9 +166,12 @@ std::function<int()> setup_recon(CLI::App& app) {
         }
       } catch (const std::exception& e) {
         failed[i] = 1;
-        j["error"] = e.what();
+        std::string msg = e.what();  // one line: library messages may carry several (e.g. image decoders)
+        for (char& c : msg)
+          if (c == '\n' || c == '\r') c = ' ';
+        j["error"] = msg;
         std::lock_guard<std::mutex> lock(io);
-        std::cerr << "sdfkit: error: " << e.what() << '\n';
+        std::cerr << "sdfkit: error: " << msg << '\n';
       }
       results[i] = std::move(j);
       bar.tick();
