@@ -15,6 +15,7 @@
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
@@ -355,6 +356,48 @@ void check_structure(const std::string& path, const std::string& ext) {
   else if (ext == "stl") check_stl(path, data);
 }
 
+/// Merge vertices with bit-identical positions (and colours, when every vertex has one), keeping first-seen order,
+/// so that STL and per-face-vertex files become indexed meshes whose parts are connected through shared edges.
+void weld_identical_vertices(std::vector<Vec3>& V, std::vector<Eigen::Vector3f>& C,
+                             std::vector<std::array<int32_t, 3>>& F, bool colored) {
+  struct Key {
+    double p[3];
+    float c[3];
+    bool operator==(const Key& o) const { return std::memcmp(this, &o, sizeof(Key)) == 0; }
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      const auto* b = reinterpret_cast<const unsigned char*>(&k);
+      size_t h = 1469598103934665603ULL;
+      for (size_t i = 0; i < sizeof(Key); ++i) h = (h ^ b[i]) * 1099511628211ULL;
+      return h;
+    }
+  };
+  std::unordered_map<Key, int32_t, KeyHash> index;
+  index.reserve(V.size());
+  std::vector<int32_t> remap(V.size());
+  std::vector<Vec3> V2;
+  std::vector<Eigen::Vector3f> C2;
+  for (size_t i = 0; i < V.size(); ++i) {
+    Key k;
+    std::memset(&k, 0, sizeof k);
+    for (int a = 0; a < 3; ++a) {
+      k.p[a] = V[i][a] == 0.0 ? 0.0 : V[i][a];  // -0.0 and 0.0 are the same point
+      k.c[a] = colored ? C[i][a] : 0.f;
+    }
+    const auto [it, inserted] = index.emplace(k, static_cast<int32_t>(V2.size()));
+    if (inserted) {
+      V2.push_back(V[i]);
+      C2.push_back(C[i]);
+    }
+    remap[i] = it->second;
+  }
+  for (auto& f : F)
+    for (auto& v : f) v = remap[static_cast<size_t>(v)];
+  V.swap(V2);
+  C.swap(C2);
+}
+
 }  // namespace
 
 Mesh read_mesh(const std::string& path, MeshReport* report) {
@@ -366,8 +409,10 @@ Mesh read_mesh(const std::string& path, MeshReport* report) {
   Assimp::Importer importer;
   // Keep lines/points out, keep every face as is: sdfkit counts degenerate faces itself.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene = importer.ReadFile(
-      path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType);
+  // No assimp post-processing: assimp 5.2 (Debian 12) segfaults in its post-processing steps on some valid
+  // coloured binary PLYs (seen on procedural benchmark shapes). append_node fans polygons into triangles and skips
+  // points and lines; identical vertices are welded below.
+  const aiScene* scene = importer.ReadFile(path, 0);
   if (scene == nullptr || scene->mRootNode == nullptr) {
     std::string why = importer.GetErrorString();
     if (why.empty()) why = "cannot parse";
@@ -379,6 +424,7 @@ Mesh read_mesh(const std::string& path, MeshReport* report) {
   std::vector<Eigen::Vector3f> C;
   bool all_colored = true;
   append_node(scene, scene->mRootNode, aiMatrix4x4(), V, F, C, all_colored, path);
+  weld_identical_vertices(V, C, F, all_colored);
   Mesh mesh;
   mesh.V.resize(static_cast<Eigen::Index>(V.size()), 3);
   for (size_t i = 0; i < V.size(); ++i) mesh.V.row(static_cast<Eigen::Index>(i)) = V[i].transpose();
