@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/ply_io.h"
 
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
@@ -57,9 +58,9 @@ void append_node(const aiScene* scene, const aiNode* node, const aiMatrix4x4& pa
 }
 
 // ---- Structural checks before assimp ------------------------------------------------------------------------
-// assimp is lax on broken files: it crashes on truncated binary PLY, silently drops faces with out-of-range
-// indices (binary PLY, OFF) and parses "nan" in OBJ/OFF as a finite number. These checks read the file once
-// and reject such input with a message naming the file; assimp then does the actual parsing.
+// assimp is lax on broken files: it silently drops faces with out-of-range indices (OFF) and parses "nan" in
+// OBJ/OFF as a finite number. These checks read the file once and reject such input with a message naming the
+// file; assimp then does the actual parsing. PLY files never reach assimp (core/ply_io.h).
 
 [[noreturn]] void fail_io(const std::string& path, const std::string& what) { throw IoError(path + ": " + what); }
 [[noreturn]] void fail_input(const std::string& path, const std::string& what) { throw InvalidInput(path + ": " + what); }
@@ -176,141 +177,6 @@ void check_off(const std::string& path, const std::string& text) {
   }
 }
 
-struct PlyProperty {
-  std::string name;
-  int size = 0;             ///< bytes of the scalar (or of each list item)
-  std::string type;         ///< scalar / item type
-  int count_size = 0;       ///< > 0 for lists: bytes of the count
-  std::string count_type;
-};
-struct PlyElement {
-  std::string name;
-  long count = 0;
-  std::vector<PlyProperty> props;
-};
-
-int ply_type_size(const std::string& t) {
-  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-  if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32") return 4;
-  if (t == "double" || t == "float64") return 8;
-  return 0;
-}
-
-double ply_binary_value(const char* p, const std::string& t, bool big_endian) {
-  char b[8];
-  const int n = ply_type_size(t);
-  for (int i = 0; i < n; ++i) b[i] = big_endian ? p[n - 1 - i] : p[i];
-  if (t == "char" || t == "int8") return static_cast<double>(*reinterpret_cast<const int8_t*>(b));
-  if (t == "uchar" || t == "uint8") return static_cast<double>(*reinterpret_cast<const uint8_t*>(b));
-  int16_t i16; uint16_t u16; int32_t i32; uint32_t u32; float f32; double f64;
-  if (t == "short" || t == "int16") { std::memcpy(&i16, b, 2); return i16; }
-  if (t == "ushort" || t == "uint16") { std::memcpy(&u16, b, 2); return u16; }
-  if (t == "int" || t == "int32") { std::memcpy(&i32, b, 4); return i32; }
-  if (t == "uint" || t == "uint32") { std::memcpy(&u32, b, 4); return u32; }
-  if (t == "float" || t == "float32") { std::memcpy(&f32, b, 4); return f32; }
-  std::memcpy(&f64, b, 8);
-  return f64;
-}
-
-void check_ply(const std::string& path, const std::string& data) {
-  if (data.compare(0, 3, "ply") != 0) fail_io(path, "not a PLY file (no 'ply' magic)");
-  const size_t header_end = data.find("end_header");
-  if (header_end == std::string::npos) fail_io(path, "truncated PLY header (no end_header)");
-  size_t body = data.find('\n', header_end);
-  if (body == std::string::npos) fail_io(path, "truncated PLY file (nothing after end_header)");
-  ++body;
-  std::string format;
-  std::vector<PlyElement> elements;
-  {
-    size_t pos = 0;
-    while (pos < header_end) {
-      size_t end = data.find('\n', pos);
-      std::string line = data.substr(pos, end - pos);
-      pos = end + 1;
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      char a[64] = {0}, b[64] = {0}, c[64] = {0}, d[64] = {0}, e[64] = {0};
-      const int n = std::sscanf(line.c_str(), "%63s %63s %63s %63s %63s", a, b, c, d, e);
-      const std::string kw = n > 0 ? a : "";
-      if (kw == "format") {
-        format = b;
-      } else if (kw == "element") {
-        PlyElement el;
-        el.name = b;
-        char* endp = nullptr;
-        el.count = std::strtol(c, &endp, 10);
-        if (n < 3 || endp == c || el.count < 0) fail_io(path, "malformed PLY header line '" + line + "'");
-        elements.push_back(el);
-      } else if (kw == "property") {
-        if (elements.empty()) fail_io(path, "PLY property before any element");
-        PlyProperty p;
-        if (std::string(b) == "list") {
-          p.count_type = c;
-          p.count_size = ply_type_size(c);
-          p.type = d;
-          p.size = ply_type_size(d);
-          p.name = e;
-          if (n < 5 || p.count_size == 0 || p.size == 0) fail_io(path, "malformed PLY header line '" + line + "'");
-        } else {
-          p.type = b;
-          p.size = ply_type_size(b);
-          p.name = c;
-          if (n < 3 || p.size == 0) fail_io(path, "malformed PLY header line '" + line + "'");
-        }
-        elements.back().props.push_back(p);
-      }
-    }
-  }
-  const bool ascii = format == "ascii";
-  const bool big = format == "binary_big_endian";
-  if (!ascii && !big && format != "binary_little_endian") fail_io(path, "unknown PLY format '" + format + "'");
-  long nv = 0;
-  for (const auto& el : elements)
-    if (el.name == "vertex") nv = el.count;
-  size_t pos = body;
-  const char* text = data.c_str();
-  auto next_value = [&](const std::string& type, const std::string& where) -> double {
-    if (ascii) {
-      while (pos < data.size() && std::isspace(static_cast<unsigned char>(data[pos]))) ++pos;
-      if (pos >= data.size()) fail_io(path, "truncated PLY file (data ends inside " + where + ")");
-      const char* s = text + pos;
-      const char* e = nullptr;
-      double v = 0;
-      if (!parse_double(s, v, &e)) fail_io(path, "malformed PLY value in " + where);
-      pos += static_cast<size_t>(e - s);
-      return v;
-    }
-    const int n = ply_type_size(type);
-    if (pos + static_cast<size_t>(n) > data.size())
-      fail_io(path, "truncated binary PLY (data ends inside " + where + ")");
-    const double v = ply_binary_value(text + pos, type, big);
-    pos += static_cast<size_t>(n);
-    return v;
-  };
-  for (const auto& el : elements) {
-    const bool is_vertex = el.name == "vertex", is_face = el.name == "face";
-    for (long i = 0; i < el.count; ++i) {
-      const std::string where = el.name + " " + std::to_string(i) + " of " + std::to_string(el.count);
-      double xyz[3] = {0, 0, 0};
-      for (const auto& p : el.props) {
-        if (p.count_size > 0) {
-          const double n = next_value(p.count_type, where);
-          if (!(n >= 0) || n > 1e6) fail_io(path, "bad list length in " + where);
-          const bool indices = is_face && (p.name == "vertex_indices" || p.name == "vertex_index");
-          for (long k = 0; k < static_cast<long>(n); ++k) {
-            const double idx = next_value(p.type, where);
-            if (indices) check_index(path, i, static_cast<long>(idx), nv);
-          }
-        } else {
-          const double v = next_value(p.type, where);
-          if (is_vertex && p.name.size() == 1 && p.name[0] >= 'x' && p.name[0] <= 'z') xyz[p.name[0] - 'x'] = v;
-        }
-      }
-      if (is_vertex) check_vertex(path, i, xyz);
-    }
-  }
-}
-
 void check_stl(const std::string& path, const std::string& data) {
   if (data.size() >= 84) {
     uint32_t n = 0;
@@ -352,7 +218,6 @@ void check_structure(const std::string& path, const std::string& ext) {
   if (data.find_first_not_of(" \t\r\n") == std::string::npos) fail_io(path, "empty file");
   if (ext == "obj") check_obj(path, data);
   else if (ext == "off") check_off(path, data);
-  else if (ext == "ply") check_ply(path, data);
   else if (ext == "stl") check_stl(path, data);
 }
 
@@ -405,6 +270,31 @@ Mesh read_mesh(const std::string& path, MeshReport* report) {
   if (ext != "obj" && ext != "ply" && ext != "off" && ext != "stl")
     throw IoError(path + ": unknown mesh extension '." + ext + "' (expected .obj, .ply, .off or .stl)");
   if (!std::filesystem::is_regular_file(path)) throw IoError(path + ": no such file");
+  if (ext == "ply") {
+    // Our own reader (core/ply_io.h): assimp 5.2 misreads some valid binary PLYs.
+    Mesh raw = read_ply(path);
+    std::vector<Vec3> V(static_cast<size_t>(raw.V.rows()));
+    std::vector<Eigen::Vector3f> C(V.size(), Eigen::Vector3f::Constant(0.7f));
+    std::vector<std::array<int32_t, 3>> F(static_cast<size_t>(raw.F.rows()));
+    const bool colored = raw.has_colors();
+    for (size_t i = 0; i < V.size(); ++i) {
+      V[i] = raw.V.row(static_cast<Eigen::Index>(i)).transpose();
+      if (colored) C[i] = raw.colors.row(static_cast<Eigen::Index>(i)).transpose();
+    }
+    for (size_t f = 0; f < F.size(); ++f)
+      for (int k = 0; k < 3; ++k) F[f][k] = raw.F(static_cast<Eigen::Index>(f), k);
+    weld_identical_vertices(V, C, F, colored);
+    Mesh mesh;
+    mesh.V.resize(static_cast<Eigen::Index>(V.size()), 3);
+    for (size_t i = 0; i < V.size(); ++i) mesh.V.row(static_cast<Eigen::Index>(i)) = V[i].transpose();
+    mesh.F.resize(static_cast<Eigen::Index>(F.size()), 3);
+    for (size_t i = 0; i < F.size(); ++i) mesh.F.row(static_cast<Eigen::Index>(i)) << F[i][0], F[i][1], F[i][2];
+    if (colored) {
+      mesh.colors.resize(static_cast<Eigen::Index>(C.size()), 3);
+      for (size_t i = 0; i < C.size(); ++i) mesh.colors.row(static_cast<Eigen::Index>(i)) = C[i].transpose();
+    }
+    return validate_mesh(mesh, path, report);
+  }
   check_structure(path, ext);
   Assimp::Importer importer;
   // Keep lines/points out, keep every face as is: sdfkit counts degenerate faces itself.

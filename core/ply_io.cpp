@@ -1,0 +1,363 @@
+#include "core/ply_io.h"
+
+#include "core/error.h"
+#include "core/files.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+#include <vector>
+
+namespace sdfkit {
+namespace {
+
+enum class PlyType { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64, Unknown };
+
+PlyType ply_type(const std::string& t) {
+  if (t == "char" || t == "int8") return PlyType::Int8;
+  if (t == "uchar" || t == "uint8") return PlyType::UInt8;
+  if (t == "short" || t == "int16") return PlyType::Int16;
+  if (t == "ushort" || t == "uint16") return PlyType::UInt16;
+  if (t == "int" || t == "int32") return PlyType::Int32;
+  if (t == "uint" || t == "uint32") return PlyType::UInt32;
+  if (t == "float" || t == "float32") return PlyType::Float32;
+  if (t == "double" || t == "float64") return PlyType::Float64;
+  return PlyType::Unknown;
+}
+
+size_t type_size(PlyType t) {
+  switch (t) {
+    case PlyType::Int8: case PlyType::UInt8: return 1;
+    case PlyType::Int16: case PlyType::UInt16: return 2;
+    case PlyType::Int32: case PlyType::UInt32: case PlyType::Float32: return 4;
+    case PlyType::Float64: return 8;
+    case PlyType::Unknown: return 0;
+  }
+  return 0;
+}
+
+bool is_integer(PlyType t) { return t != PlyType::Float32 && t != PlyType::Float64; }
+
+/// What a property means to the mesh.
+enum class Role { Skip, X, Y, Z, Red, Green, Blue, Indices };
+
+struct Property {
+  std::string name;
+  PlyType type = PlyType::Unknown;        ///< scalar type, or list item type
+  PlyType count_type = PlyType::Unknown;  ///< list count type; Unknown for scalars
+  Role role = Role::Skip;
+  [[nodiscard]] bool list() const { return count_type != PlyType::Unknown; }
+};
+
+struct Element {
+  std::string name;
+  long count = 0;
+  std::vector<Property> props;
+};
+
+/// Reads values one at a time from the body, in the file's encoding; every read checks the bounds.
+class BodyReader {
+ public:
+  BodyReader(const std::string& bytes, size_t begin, int format, const std::string& name)
+      : data_(bytes.data()), size_(bytes.size()), pos_(begin), format_(format), name_(name) {}
+
+  /// format: 0 ascii, 1 binary little endian, 2 binary big endian.
+  double read(PlyType t, const char* where_element, long where_index) {
+    if (format_ == 0) return read_ascii(where_element, where_index);
+    const size_t n = type_size(t);
+    if (pos_ + n > size_) truncated(where_element, where_index);
+    unsigned char b[8];
+    std::memcpy(b, data_ + pos_, n);
+    pos_ += n;
+    const bool swap = (format_ == 2) != host_big_endian();
+    if (swap)
+      for (size_t i = 0; i < n / 2; ++i) std::swap(b[i], b[n - 1 - i]);
+    switch (t) {
+      case PlyType::Int8: { int8_t v; std::memcpy(&v, b, 1); return v; }
+      case PlyType::UInt8: return b[0];
+      case PlyType::Int16: { int16_t v; std::memcpy(&v, b, 2); return v; }
+      case PlyType::UInt16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
+      case PlyType::Int32: { int32_t v; std::memcpy(&v, b, 4); return v; }
+      case PlyType::UInt32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
+      case PlyType::Float32: { float v; std::memcpy(&v, b, 4); return v; }
+      case PlyType::Float64: { double v; std::memcpy(&v, b, 8); return v; }
+      case PlyType::Unknown: break;
+    }
+    return 0;
+  }
+
+  /// Skip `count` binary values of type t (ascii: read them).
+  void skip(PlyType t, long count, const char* where_element, long where_index) {
+    if (format_ == 0) {
+      for (long i = 0; i < count; ++i) read_ascii(where_element, where_index);
+      return;
+    }
+    const size_t n = type_size(t) * static_cast<size_t>(count);
+    if (pos_ + n > size_ || pos_ + n < pos_) truncated(where_element, where_index);
+    pos_ += n;
+  }
+
+  /// Bytes left after the last element that are not whitespace (binary: any byte but '\n', '\r', ' ', '\0').
+  [[nodiscard]] bool trailing_data() const {
+    for (size_t i = pos_; i < size_; ++i) {
+      const char c = data_[i];
+      if (c != '\n' && c != '\r' && c != ' ' && c != '\t' && !(format_ != 0 && c == '\0')) return true;
+    }
+    return false;
+  }
+
+ private:
+  static bool host_big_endian() {
+    const uint16_t one = 1;
+    unsigned char b;
+    std::memcpy(&b, &one, 1);
+    return b == 0;
+  }
+
+  double read_ascii(const char* where_element, long where_index) {
+    while (pos_ < size_ && std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
+    if (pos_ >= size_) truncated(where_element, where_index);
+    // Tokens are short; copy one so that strtod never reads past the buffer.
+    char token[64];
+    size_t n = 0;
+    while (pos_ + n < size_ && !std::isspace(static_cast<unsigned char>(data_[pos_ + n])) && n < sizeof token - 1) {
+      token[n] = data_[pos_ + n];
+      ++n;
+    }
+    token[n] = '\0';
+    char* end = nullptr;
+    const double v = std::strtod(token, &end);
+    if (end != token + n || n == 0)
+      throw IoError(name_ + ": malformed PLY value '" + token + "' in " + where_element + " " +
+                    std::to_string(where_index));
+    pos_ += n;
+    return v;
+  }
+
+  [[noreturn]] void truncated(const char* where_element, long where_index) const {
+    throw IoError(name_ + (format_ == 0 ? ": truncated PLY" : ": truncated binary PLY") + " (data ends inside " +
+                  where_element + " " + std::to_string(where_index) + ")");
+  }
+
+  const char* data_;
+  size_t size_;
+  size_t pos_;
+  int format_;
+  const std::string& name_;
+};
+
+}  // namespace
+
+Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info) {
+  if (bytes.find_first_not_of(" \t\r\n") == std::string::npos) throw IoError(name + ": empty file");
+  // ---- Header: lines up to "end_header" ----
+  size_t pos = 0;
+  auto next_line = [&](std::string& line) {
+    if (pos >= bytes.size()) return false;
+    size_t end = bytes.find('\n', pos);
+    if (end == std::string::npos) end = bytes.size();
+    line = bytes.substr(pos, end - pos);
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    pos = end + 1;
+    return true;
+  };
+  std::string line;
+  if (!next_line(line) || line != "ply") throw IoError(name + ": not a PLY file (first line is not 'ply')");
+  std::string format;
+  std::vector<Element> elements;
+  bool ended = false;
+  while (next_line(line)) {
+    std::istringstream in(line);
+    std::string kw;
+    in >> kw;
+    if (kw.empty() || kw == "comment" || kw == "obj_info") continue;
+    if (kw == "end_header") {
+      ended = true;
+      break;
+    }
+    auto bad = [&] { return IoError(name + ": malformed PLY header line '" + line + "'"); };
+    if (kw == "format") {
+      std::string version;
+      if (!(in >> format >> version)) throw bad();
+      if (format != "ascii" && format != "binary_little_endian" && format != "binary_big_endian")
+        throw IoError(name + ": unknown PLY format '" + format + "'");
+    } else if (kw == "element") {
+      Element el;
+      std::string count;
+      if (!(in >> el.name >> count)) throw bad();
+      char* end = nullptr;
+      el.count = std::strtol(count.c_str(), &end, 10);
+      if (*end != '\0' || el.count < 0) throw bad();
+      elements.push_back(el);
+    } else if (kw == "property") {
+      if (elements.empty()) throw IoError(name + ": PLY property before any element ('" + line + "')");
+      Property p;
+      std::string t;
+      if (!(in >> t)) throw bad();
+      if (t == "list") {
+        std::string ct, it;
+        if (!(in >> ct >> it >> p.name)) throw bad();
+        p.count_type = ply_type(ct);
+        p.type = ply_type(it);
+        if (p.count_type == PlyType::Unknown || p.type == PlyType::Unknown)
+          throw IoError(name + ": unknown PLY type in '" + line + "'");
+        if (!is_integer(p.count_type)) throw IoError(name + ": PLY list count must be an integer type ('" + line + "')");
+      } else {
+        p.type = ply_type(t);
+        if (!(in >> p.name)) throw bad();
+        if (p.type == PlyType::Unknown) throw IoError(name + ": unknown PLY type '" + t + "' in '" + line + "'");
+      }
+      elements.back().props.push_back(p);
+    } else {
+      throw IoError(name + ": unknown PLY header keyword '" + kw + "'");
+    }
+  }
+  if (!ended) throw IoError(name + ": truncated PLY header (no end_header)");
+  if (format.empty()) throw IoError(name + ": PLY header has no format line");
+
+  // ---- Roles ----
+  PlyInfo inf;
+  inf.format = format;
+  Element* vertex = nullptr;
+  Element* face = nullptr;
+  for (auto& el : elements) {
+    if (el.name == "vertex" && !vertex) {
+      vertex = &el;
+      for (auto& p : el.props) {
+        if (p.list()) continue;
+        if (p.name == "x") p.role = Role::X;
+        else if (p.name == "y") p.role = Role::Y;
+        else if (p.name == "z") p.role = Role::Z;
+        else if (p.name == "red" || p.name == "diffuse_red") p.role = Role::Red;
+        else if (p.name == "green" || p.name == "diffuse_green") p.role = Role::Green;
+        else if (p.name == "blue" || p.name == "diffuse_blue") p.role = Role::Blue;
+      }
+    } else if (el.name == "face" && !face) {
+      face = &el;
+      for (auto& p : el.props)
+        if (p.list() && (p.name == "vertex_indices" || p.name == "vertex_index") &&
+            std::none_of(el.props.begin(), el.props.end(), [](const Property& q) { return q.role == Role::Indices; })) {
+          if (!is_integer(p.type)) throw IoError(name + ": PLY face indices must be an integer type");
+          p.role = Role::Indices;
+        }
+    } else {
+      ++inf.skipped_elements;
+    }
+  }
+  if (!vertex) throw IoError(name + ": PLY file has no vertex element");
+  int has[8] = {0};
+  for (const auto& p : vertex->props) ++has[static_cast<int>(p.role)];
+  if (!has[static_cast<int>(Role::X)] || !has[static_cast<int>(Role::Y)] || !has[static_cast<int>(Role::Z)])
+    throw IoError(name + ": PLY vertex element lacks an x, y or z property");
+  const bool colored = has[static_cast<int>(Role::Red)] && has[static_cast<int>(Role::Green)] &&
+                       has[static_cast<int>(Role::Blue)];
+  if (face && std::none_of(face->props.begin(), face->props.end(), [](const Property& p) { return p.role == Role::Indices; }))
+    throw IoError(name + ": PLY face element has no vertex_indices list");
+  inf.vertices = vertex->count;
+  inf.faces = face ? face->count : 0;
+  if (vertex->count > 2'000'000'000L) throw IoError(name + ": PLY vertex count too large");
+
+  // ---- Body ----
+  const int fmt = format == "ascii" ? 0 : format == "binary_little_endian" ? 1 : 2;
+  pos = std::min(pos, bytes.size());
+  BodyReader body(bytes, pos, fmt, name);
+  Mesh mesh;
+  std::vector<int32_t> tris;  // flat triangle corner indices
+  const long nv = vertex->count;
+  // Guard the allocation against absurd counts in a short file (every vertex needs at least one byte).
+  if (static_cast<size_t>(nv) > bytes.size() - pos)
+    throw IoError(name + (fmt == 0 ? ": truncated PLY (" : ": truncated binary PLY (") + std::to_string(nv) + " vertices declared, " +
+                  std::to_string(bytes.size() - pos) + " bytes of data)");
+  mesh.V.resize(nv, 3);
+  if (colored) mesh.colors.resize(nv, 3);
+  std::vector<int32_t> poly;
+  for (const auto& el : elements) {
+    const char* ename = el.name.c_str();
+    if (&el == vertex) {
+      for (long i = 0; i < el.count; ++i) {
+        for (const auto& p : el.props) {
+          if (p.list()) {
+            const double n = body.read(p.count_type, ename, i);
+            if (n < 0) throw IoError(name + ": negative PLY list length in vertex " + std::to_string(i));
+            body.skip(p.type, static_cast<long>(n), ename, i);
+            continue;
+          }
+          const double v = body.read(p.type, ename, i);
+          switch (p.role) {
+            case Role::X: mesh.V(i, 0) = v; break;
+            case Role::Y: mesh.V(i, 1) = v; break;
+            case Role::Z: mesh.V(i, 2) = v; break;
+            case Role::Red: case Role::Green: case Role::Blue:
+              if (colored)
+                mesh.colors(i, static_cast<int>(p.role) - static_cast<int>(Role::Red)) =
+                    static_cast<float>(is_integer(p.type) ? v / 255.0 : v);
+              break;
+            default: break;
+          }
+        }
+        if (!std::isfinite(mesh.V(i, 0)) || !std::isfinite(mesh.V(i, 1)) || !std::isfinite(mesh.V(i, 2)))
+          throw InvalidInput(name + ": non-finite vertex coordinates (NaN or Inf) at vertex " + std::to_string(i));
+      }
+    } else if (&el == face) {
+      tris.reserve(static_cast<size_t>(std::min<long>(el.count, 50'000'000)) * 3);
+      for (long f = 0; f < el.count; ++f) {
+        for (const auto& p : el.props) {
+          if (!p.list()) {
+            body.read(p.type, ename, f);
+            continue;
+          }
+          const double n = body.read(p.count_type, ename, f);
+          if (n < 0) throw IoError(name + ": negative PLY list length in face " + std::to_string(f));
+          const auto count = static_cast<long>(n);
+          if (p.role != Role::Indices) {
+            body.skip(p.type, count, ename, f);
+            continue;
+          }
+          poly.clear();
+          for (long k = 0; k < count; ++k) {
+            const double idx = body.read(p.type, ename, f);
+            if (idx < 0 || idx >= static_cast<double>(nv) || idx != std::floor(idx))
+              throw InvalidInput(name + ": face index out of range: face " + std::to_string(f) + " uses vertex " +
+                                 std::to_string(static_cast<long long>(idx)) + " but the file has " +
+                                 std::to_string(nv) + " vertices");
+            poly.push_back(static_cast<int32_t>(idx));
+          }
+          if (count < 3) {
+            ++inf.skipped_faces;
+            continue;
+          }
+          if (count > 3) ++inf.polygons;
+          for (long k = 1; k + 1 < count; ++k) {  // fan
+            tris.push_back(poly[0]);
+            tris.push_back(poly[static_cast<size_t>(k)]);
+            tris.push_back(poly[static_cast<size_t>(k + 1)]);
+          }
+        }
+      }
+    } else {
+      for (long i = 0; i < el.count; ++i)
+        for (const auto& p : el.props) {
+          if (p.list()) {
+            const double n = body.read(p.count_type, ename, i);
+            if (n < 0) throw IoError(name + ": negative PLY list length in " + el.name + " " + std::to_string(i));
+            body.skip(p.type, static_cast<long>(n), ename, i);
+          } else {
+            body.skip(p.type, 1, ename, i);
+          }
+        }
+    }
+  }
+  if (body.trailing_data())
+    throw IoError(name + ": PLY file has more data than its header declares (element counts do not match)");
+  mesh.F.resize(static_cast<Eigen::Index>(tris.size() / 3), 3);
+  if (!tris.empty()) std::memcpy(mesh.F.data(), tris.data(), tris.size() * sizeof(int32_t));
+  if (info) *info = inf;
+  return mesh;
+}
+
+Mesh read_ply(const std::string& path, PlyInfo* info) { return parse_ply(read_file(path), path, info); }
+
+}  // namespace sdfkit
