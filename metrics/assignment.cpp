@@ -3,8 +3,10 @@
 #include "core/error.h"
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <limits>
+#include <queue>
 #include <string>
 
 namespace sdfkit::metrics {
@@ -72,7 +74,8 @@ SparseAuction::SparseAuction(int n)
       edges_(static_cast<size_t>(std::max(n, 0))),
       col_of_row_(static_cast<size_t>(std::max(n, 0)), -1),
       row_of_col_(static_cast<size_t>(std::max(n, 0)), -1),
-      price_(static_cast<size_t>(std::max(n, 0)), 0.0) {
+      price_(static_cast<size_t>(std::max(n, 0)), 0.0),
+      bid_eps_(static_cast<size_t>(std::max(n, 0)), std::numeric_limits<double>::infinity()) {
   require(n > 0, "assignment: empty problem");
 }
 
@@ -80,12 +83,14 @@ int SparseAuction::add_edges(int row, const std::vector<std::pair<int, double>>&
   auto& e = edges_[static_cast<size_t>(row)];
   const size_t before = e.size();
   for (const auto& [col, c] : edges) {
-    require(col >= 0 && col < n_ && std::isfinite(c), "assignment: bad edge");
+    if (col < 0 || col >= n_ || !std::isfinite(c)) throw InvalidInput("assignment: bad edge");
     e.emplace_back(col, c);
   }
-  // Stable sort by column, then drop repeated columns (the first cost stays).
-  std::stable_sort(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  // Sort by column (then cost), drop repeated columns: the lowest cost given for a column stays. (A first
+  // batch that is already sorted and unique is taken as is.)
+  if (before > 0 || !std::is_sorted(e.begin(), e.end())) std::sort(e.begin(), e.end());
   e.erase(std::unique(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first == b.first; }), e.end());
+  if (e.size() > before) bid_eps_[static_cast<size_t>(row)] = std::numeric_limits<double>::infinity();
   return static_cast<int>(e.size() - before);
 }
 
@@ -148,34 +153,46 @@ int SparseAuction::ensure_perfect_matching(const std::function<double(int, int)>
   return completed;
 }
 
-void SparseAuction::bid_until_assigned(std::vector<int> queue) {
+double SparseAuction::slack(int row) const {
+  const int s = col_of_row_[static_cast<size_t>(row)];
+  if (s < 0) return std::numeric_limits<double>::infinity();
+  double best = std::numeric_limits<double>::infinity(), mine = best;
+  for (const auto& [j, c] : edges_[static_cast<size_t>(row)]) {
+    const double w = c + price_[j];
+    best = std::min(best, w);
+    if (j == s) mine = w;
+  }
+  return mine - best;
+}
+
+void SparseAuction::bid_until_assigned(std::vector<int>& queue) {
   // FIFO of free rows (deterministic order).
   size_t head = 0;
   while (head < queue.size()) {
     const int i = queue[head++];
-    const auto& e = edges_[i];
-    double best = std::numeric_limits<double>::infinity(), second = best, best_c = 0;
+    double best = std::numeric_limits<double>::infinity(), second = best;
     int best_j = -1;
-    for (const auto& [j, c] : e) {
+    for (const auto& [j, c] : edges_[i]) {
       const double w = c + price_[j];
-      if (w < best) {
-        second = best;
-        best = w;
-        best_j = j;
-        best_c = c;
-      } else if (w < second) {
-        second = w;
+      if (w < second) {  // rarely true after the first few edges: one well-predicted branch per edge
+        if (w < best) {
+          second = best;
+          best = w;
+          best_j = j;
+        } else {
+          second = w;
+        }
       }
     }
-    (void)best_c;
     // A row with one edge has no second choice: it may raise the price by anything; a large finite step
-    // (a few times the eps of the first phase would do) keeps prices finite.
+    // keeps prices finite.
     const double margin = std::isfinite(second) ? second - best : 1.0 + std::abs(best);
     price_[best_j] += margin + eps_;
     ++bids_;
     const int previous = row_of_col_[best_j];
     row_of_col_[best_j] = i;
     col_of_row_[i] = best_j;
+    bid_eps_[i] = eps_;
     if (previous >= 0) {
       col_of_row_[previous] = -1;
       queue.push_back(previous);
@@ -185,20 +202,174 @@ void SparseAuction::bid_until_assigned(std::vector<int> queue) {
       head = 0;
     }
   }
+  queue.clear();
 }
 
 void SparseAuction::solve(double eps_start, double eps_final, double factor) {
   require(eps_final > 0 && eps_start >= eps_final && factor > 1, "auction: bad epsilon schedule");
   eps_ = eps_start;
+  std::vector<int> queue;
   while (true) {
-    std::fill(col_of_row_.begin(), col_of_row_.end(), -1);
-    std::fill(row_of_col_.begin(), row_of_col_.end(), -1);
-    std::vector<int> queue(static_cast<size_t>(n_));
-    for (int i = 0; i < n_; ++i) queue[i] = i;
-    bid_until_assigned(std::move(queue));
+    // Free the rows that break eps-CS at this eps (all of them on a first call); the others keep their column.
+    // Prices only rise, so a kept row's slack can only shrink until its column is taken from it.
+    // A row's slack right after its bid is the eps of that bid, and only shrinks while it keeps its column; so
+    // rows that last bid at an eps <= this one need no check (bid_eps_ is infinite for rows given new edges).
+    for (int i = 0; i < n_; ++i) {
+      if (col_of_row_[i] >= 0 && (bid_eps_[i] <= eps_ || slack(i) <= eps_)) continue;
+      if (col_of_row_[i] >= 0) {
+        row_of_col_[col_of_row_[i]] = -1;
+        col_of_row_[i] = -1;
+      }
+      queue.push_back(i);
+    }
+    bid_until_assigned(queue);
     if (eps_ <= eps_final) break;
     eps_ = std::max(eps_ / factor, eps_final);
   }
+}
+
+}  // namespace sdfkit::metrics
+
+namespace sdfkit::metrics {
+
+SparseShortestPath::SparseShortestPath(int n)
+    : n_(n),
+      edges_(static_cast<size_t>(std::max(n, 0))),
+      col_of_row_(static_cast<size_t>(std::max(n, 0)), -1),
+      row_of_col_(static_cast<size_t>(std::max(n, 0)), -1),
+      v_(static_cast<size_t>(std::max(n, 0)), 0.0),
+      dist_(static_cast<size_t>(std::max(n, 0)), 0.0),
+      pred_row_(static_cast<size_t>(std::max(n, 0)), -1),
+      stamp_(static_cast<size_t>(std::max(n, 0)), -1),
+      done_(static_cast<size_t>(std::max(n, 0)), -1),
+      assigned_cost_(static_cast<size_t>(std::max(n, 0)), 0.0) {
+  require(n > 0, "assignment: empty problem");
+}
+
+int SparseShortestPath::add_edges(int row, const std::vector<std::pair<int, double>>& edges) {
+  auto& e = edges_[static_cast<size_t>(row)];
+  const size_t before = e.size();
+  for (const auto& [col, c] : edges) {
+    if (col < 0 || col >= n_ || !std::isfinite(c)) throw InvalidInput("assignment: bad edge");
+    e.emplace_back(col, c);
+  }
+  if (before > 0 || !std::is_sorted(e.begin(), e.end())) std::sort(e.begin(), e.end());
+  e.erase(std::unique(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first == b.first; }), e.end());
+  const int s = col_of_row_[static_cast<size_t>(row)];
+  if (e.size() > before && s >= 0) {
+    // Still tight? (the assigned edge must attain the row minimum of c_ij - v_j)
+    double mine = 0, best = std::numeric_limits<double>::infinity();
+    for (const auto& [j, c] : e) {
+      best = std::min(best, c - v_[j]);
+      if (j == s) mine = c - v_[j];
+    }
+    if (best < mine) {
+      col_of_row_[static_cast<size_t>(row)] = -1;
+      row_of_col_[static_cast<size_t>(s)] = -1;
+    }
+  }
+  return static_cast<int>(e.size() - before);
+}
+
+long SparseShortestPath::num_edges() const {
+  long m = 0;
+  for (const auto& e : edges_) m += static_cast<long>(e.size());
+  return m;
+}
+
+std::vector<double> SparseShortestPath::prices() const {
+  std::vector<double> p(v_.size());
+  for (size_t j = 0; j < v_.size(); ++j) p[j] = -v_[j];
+  return p;
+}
+
+double SparseShortestPath::slack(int row) const {
+  const int s = col_of_row_[static_cast<size_t>(row)];
+  if (s < 0) return std::numeric_limits<double>::infinity();
+  double best = std::numeric_limits<double>::infinity(), mine = best;
+  for (const auto& [j, c] : edges_[static_cast<size_t>(row)]) {
+    const double w = c - v_[j];
+    best = std::min(best, w);
+    if (j == s) mine = w;
+  }
+  return mine - best;
+}
+
+void SparseShortestPath::augment(int f) {
+  // Dijkstra over columns from free row f. dist_[j] = length of the shortest alternating path f -> j in
+  // reduced costs c_ij - v_j - u_i (u_i = c_i,s(i) - v_s(i) for assigned rows; for f, the raw c_fj - v_j).
+  // Settled columns (done_ == search_) are in settled_, in order. Ties: smaller (dist, column) first.
+  ++search_;
+  heap_.clear();
+  settled_.clear();
+  const auto cmp = std::greater<>();
+  auto relax = [&](int row, double base) {
+    for (const auto& [j, c] : edges_[row]) {
+      if (done_[j] == search_) continue;
+      const double d = base + c - v_[j];
+      if (stamp_[j] != search_ || d < dist_[j]) {
+        stamp_[j] = search_;
+        dist_[j] = d;
+        pred_row_[j] = row;
+        heap_.emplace_back(d, j);
+        std::push_heap(heap_.begin(), heap_.end(), cmp);
+      }
+    }
+  };
+  relax(f, 0.0);
+  int end = -1;
+  double D = 0;
+  while (!heap_.empty()) {
+    const auto [d, j] = heap_.front();
+    std::pop_heap(heap_.begin(), heap_.end(), cmp);
+    heap_.pop_back();
+    if (done_[j] == search_ || d > dist_[j]) continue;
+    done_[j] = search_;
+    settled_.push_back(j);
+    const int i = row_of_col_[j];
+    if (i < 0) {
+      end = j;
+      D = d;
+      break;
+    }
+    // through row i (assigned to j): the path continues with i's other edges, reduced by u_i = c_ij - v_j
+    relax(i, d - (assigned_cost_[i] - v_[j]));
+  }
+  require(end >= 0, "assignment: the candidate graph has no perfect matching");
+  scanned_total_ += static_cast<long>(settled_.size());
+  ++augmentations_;
+  // Potentials: every settled column j gets v_j += dist_j - D (<= 0: prices only rise), which keeps every
+  // reduced cost >= 0 and makes the path's edges tight.
+  for (int j : settled_) v_[j] += dist_[j] - D;
+  // Flip the path.
+  int j = end;
+  while (true) {
+    const int i = pred_row_[j];
+    const int next = col_of_row_[i];
+    assign(i, j);
+    if (i == f) break;
+    j = next;
+  }
+}
+
+void SparseShortestPath::assign(int i, int j) {
+  col_of_row_[i] = j;
+  row_of_col_[j] = i;
+  const auto& e = edges_[i];
+  const auto it = std::lower_bound(e.begin(), e.end(), j, [](const auto& x, int col) { return x.first < col; });
+  assigned_cost_[i] = it->second;
+}
+
+void SparseShortestPath::reset(const std::vector<double>& prices) {
+  require(prices.size() == v_.size(), "assignment: price vector of the wrong size");
+  for (size_t j = 0; j < v_.size(); ++j) v_[j] = -prices[j];
+  std::fill(col_of_row_.begin(), col_of_row_.end(), -1);
+  std::fill(row_of_col_.begin(), row_of_col_.end(), -1);
+}
+
+void SparseShortestPath::solve() {
+  for (int i = 0; i < n_; ++i)
+    if (col_of_row_[i] < 0) augment(i);
 }
 
 }  // namespace sdfkit::metrics

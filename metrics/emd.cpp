@@ -10,6 +10,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <tuple>
 
 namespace sdfkit::metrics {
 namespace {
@@ -40,6 +42,138 @@ EmdResult emd(const Points& a, const Points& b, const EmdSettings& settings) {
   return settings.method == EmdMethod::exact ? emd_exact(a, b, settings) : emd_approx(a, b);
 }
 
+namespace {
+
+// Morton code of a point quantised to 21 bits per axis inside `box` (x in the lowest bit of each triple).
+uint64_t morton(const Box3& box, const Vec3& p) {
+  const Vec3 ext = box.extent();
+  uint64_t code = 0;
+  for (int d = 0; d < 3; ++d) {
+    const double t = ext[d] > 0 ? (p[d] - box.lo[d]) / ext[d] : 0.0;
+    const auto q = static_cast<uint64_t>(std::clamp(t, 0.0, 1.0) * 2097151.0);
+    for (int bit = 0; bit < 21; ++bit) code |= ((q >> bit) & 1u) << (3 * bit + d);
+  }
+  return code;
+}
+
+// Indices of the rows of `p` sorted along the Morton curve of `box` (ties by index: deterministic).
+std::vector<int> morton_order(const Points& p, const Box3& box) {
+  std::vector<std::pair<uint64_t, int>> keyed(static_cast<size_t>(p.rows()));
+  for (Eigen::Index i = 0; i < p.rows(); ++i) keyed[i] = {morton(box, p.row(i).transpose()), static_cast<int>(i)};
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<int> order(keyed.size());
+  for (size_t i = 0; i < keyed.size(); ++i) order[i] = keyed[i].second;
+  return order;
+}
+
+using EdgeList = std::vector<std::pair<int, double>>;
+
+// The dense check of the certificate: for every row i, the slack c_i,s(i) + p_s(i) - min over ALL j of
+// (c_ij + p_j), and the pairs with c_ij + p_j < c_i,s(i) + p_s(i) - threshold (the most attractive
+// `keep` of them, as (j, c_ij)). The n^2 pass runs in float (vectorised) with a rigorous bound E on the error of
+// each c_ij + p_j; every pair the float values cannot rule out (as the row minimum or as a violation) is
+// re-evaluated in double, so slacks and violations are those of the double computation.
+class DenseCheck {
+ public:
+  // Float coordinates are taken relative to `centre` (the middle of both sets' box), so their rounding is
+  // relative to the sets' extent, not to their distance from the origin.
+  DenseCheck(const Points& a, const Points& b, const Vec3& centre)
+      : a_(a), b_(b), n_(static_cast<int>(a.rows())), centre_(centre),
+        bx_((b.col(0).array() - centre.x()).cast<float>()), by_((b.col(1).array() - centre.y()).cast<float>()),
+        bz_((b.col(2).array() - centre.z()).cast<float>()), price_f_(n_), slack_(n_), violations_(n_),
+        checked_col_(n_, -1), checked_price_(n_, 0.0) {
+    max_coord_ = std::max((a.rowwise() - centre.transpose()).cwiseAbs().maxCoeff(),
+                          (b.rowwise() - centre.transpose()).cwiseAbs().maxCoeff());
+  }
+
+  /// Forget which rows were checked (the next run checks all of them).
+  void reset() { std::fill(checked_col_.begin(), checked_col_.end(), -1); }
+
+  /// Checks the rows of assignment s with prices p; returns the number of rows with violations.
+  /// Incremental: prices only rise in both solvers, so a row whose column and that column's price are those of
+  /// its last check (which found no violation, at the same threshold) cannot have a violation now: its
+  /// c_is + p_s is the same, every other c_ij + p_j the same or higher, and its slack can only have shrunk
+  /// (the value from the last check stays an upper bound). Such rows are skipped.
+  int run(const std::vector<int>& s, const std::vector<double>& p, double threshold, size_t keep) {
+    // Prices are shifted by their minimum before the float conversion (slacks are shift-invariant).
+    const double p0 = *std::min_element(p.begin(), p.end());
+    double max_price = 0;
+    for (int j = 0; j < n_; ++j) {
+      price_f_[j] = static_cast<float>(p[j] - p0);
+      max_price = std::max(max_price, p[j] - p0);
+    }
+    // |float - double| of sqrt(dx^2+dy^2+dz^2) + p: coordinate and price roundings (2^-24 relative each) and a
+    // few roundings of the distance (<= 2 sqrt(3) max_coord) and of the sum; 4e-6 x (coordinates + prices)
+    // covers them several times over.
+    const double E = 4e-6 * (max_coord_ + max_price) + 1e-300;
+    tbb::parallel_for(tbb::blocked_range<int>(0, n_, 32), [&](const tbb::blocked_range<int>& r) {
+      Eigen::ArrayXf w(n_);
+      std::vector<int> cand;
+      for (int i = r.begin(); i != r.end(); ++i) {
+        auto& v = violations_[i];
+        if (checked_col_[i] == s[i] && checked_price_[i] == p[s[i]] && v.empty()) continue;
+        checked_col_[i] = s[i];
+        checked_price_[i] = p[s[i]];
+        const auto ax = static_cast<float>(a_(i, 0) - centre_.x()), ay = static_cast<float>(a_(i, 1) - centre_.y()),
+                   az = static_cast<float>(a_(i, 2) - centre_.z());
+        w = ((bx_ - ax).square() + (by_ - ay).square() + (bz_ - az).square()).sqrt() + price_f_;
+        const double best_f = w.minCoeff();
+        const double mine = distance(a_, i, b_, s[i]) + (p[s[i]] - p0);
+        // Candidates: pairs that may be the row minimum, or may undercut mine by more than the threshold.
+        const auto limit = static_cast<float>(std::max(best_f + 2 * E, mine - threshold + E));
+        cand.clear();
+        for (int j = 0; j < n_; ++j)
+          if (w[j] <= limit) cand.push_back(j);
+        double best = mine;
+        v.clear();
+        for (int j : cand) {
+          const double c = distance(a_, i, b_, j), wj = c + (p[j] - p0);
+          best = std::min(best, wj);
+          if (wj < mine - threshold) v.emplace_back(j, wj);
+        }
+        slack_[i] = mine - best;
+        if (v.size() > keep) {
+          std::partial_sort(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(keep), v.end(),
+                            [](const auto& x, const auto& y) { return std::tie(x.second, x.first) < std::tie(y.second, y.first); });
+          v.resize(keep);
+        }
+        for (auto& [j, c] : v) c = distance(a_, i, b_, j);  // back to the cost
+      }
+    });
+    int rows = 0;
+    for (const auto& v : violations_) rows += v.empty() ? 0 : 1;
+    return rows;
+  }
+
+  [[nodiscard]] const EdgeList& violations(int i) const { return violations_[i]; }
+  [[nodiscard]] double slack(int i) const { return slack_[i]; }
+  [[nodiscard]] double worst_slack_of_violating_rows() const {
+    double worst = 0;
+    for (int i = 0; i < n_; ++i)
+      if (!violations_[i].empty()) worst = std::max(worst, slack_[i]);
+    return worst;
+  }
+  [[nodiscard]] double total_slack() const {
+    double t = 0;
+    for (double x : slack_) t += x;
+    return t;
+  }
+
+ private:
+  const Points& a_;
+  const Points& b_;
+  int n_;
+  Vec3 centre_;
+  Eigen::ArrayXf bx_, by_, bz_, price_f_;
+  double max_coord_ = 0;
+  std::vector<double> slack_;
+  std::vector<EdgeList> violations_;
+  std::vector<int> checked_col_;
+  std::vector<double> checked_price_;
+};
+
+}  // namespace
+
 EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& settings) {
   check_pair(a, b);
   require(settings.candidates >= 1, "EMD: candidates must be >= 1");
@@ -61,94 +195,85 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
     result.rounds = 1;
     return result;
   }
-  // eps-CS bounds the excess cost by n eps: eps_final = tolerance x diag / n bounds it by tolerance x diag.
-  const double eps_final = settings.tolerance * diag / n;
+  // A row may keep a slack up to tol_row: the certificate then bounds total - optimum by n tol_row.
+  const double tol_row = settings.tolerance * diag / n;
 
-  // Candidate graph: a_i's k nearest in b, and b_j's k nearest in a (as edges (i, j)). Queried in parallel into
-  // per-point slots, inserted sequentially: the graph does not depend on the thread count.
-  SparseAuction auction(n);
+  // 1. Candidate graph: a_i's k nearest in b, b_j's k nearest in a (as edges (i, j)), and the pairs of equal rank
+  //    along a Morton curve through both sets: a permutation, so the graph always holds a perfect matching, and
+  //    one whose edges cross between regions where the two sets have unequal mass (which k-NN edges do not).
+  //    Queried in parallel into per-point slots, assembled sequentially: the graph does not depend on the
+  //    thread count.
+  std::vector<EdgeList> rows(n);
+  double longest = 0;
   {
     const KdTree tb(b, "EMD: second point set"), ta(a, "EMD: first point set");
-    std::vector<std::vector<std::pair<int, double>>> fwd(n), bwd(n);
+    std::vector<EdgeList> fwd(n), bwd(n);
     tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& r) {
       for (int i = r.begin(); i != r.end(); ++i) {
         fwd[i] = tb.knn(a.row(i).transpose(), k);
         bwd[i] = ta.knn(b.row(i).transpose(), k);
       }
     });
-    std::vector<std::vector<std::pair<int, double>>> rows(n);
+    const std::vector<int> oa = morton_order(a, box), ob = morton_order(b, box);
     for (int i = 0; i < n; ++i)
       for (const auto& [j, d2] : fwd[i]) rows[i].emplace_back(j, distance(a, i, b, j));
     for (int j = 0; j < n; ++j)
       for (const auto& [i, d2] : bwd[j]) rows[i].emplace_back(j, distance(a, i, b, j));
-    for (int i = 0; i < n; ++i) auction.add_edges(i, rows[i]);
+    for (int r = 0; r < n; ++r) rows[oa[r]].emplace_back(ob[r], distance(a, oa[r], b, ob[r]));
+    for (auto& e : rows) {
+      std::sort(e.begin(), e.end());
+      e.erase(std::unique(e.begin(), e.end(), [](const auto& x, const auto& y) { return x.first == y.first; }),
+              e.end());
+      for (const auto& edge : e) longest = std::max(longest, edge.second);
+    }
   }
-  auction.ensure_perfect_matching([&](int i, int j) { return distance(a, i, b, j); });
-  auction.solve(std::max(diag / 4, eps_final), eps_final, 8.0);
+  DenseCheck check(a, b, box.center());
+  const auto keep = static_cast<size_t>(4 * settings.candidates);
 
-  // Certificate on the full problem: u_i = min over ALL j of (c_ij + p_j) and v_j = -p_j are feasible duals, so
-  // the optimum is >= sum(u) + sum(v) and the excess of the assignment is at most
-  //   gap = sum_i [c_i,s(i) + p_s(i) - min_j (c_ij + p_j)].
-  // Rows whose slack exceeds 2 eps (eps-CS broken by a pair outside the graph; the factor 2 keeps rounding in
-  // the price updates from reporting edges already in the graph) get those pairs, and the auction runs again
-  // (warm: prices kept). The loop also ends when no new pair could be added; the bound is exact either way.
-  // The dense distance matrix, once (row-major; rows filled in parallel, each by one task).
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> cost(n, n);
-  tbb::parallel_for(tbb::blocked_range<int>(0, n, 16), [&](const tbb::blocked_range<int>& r) {
-    for (int i = r.begin(); i != r.end(); ++i)
-      for (int j = 0; j < n; ++j) cost(i, j) = distance(a, i, b, j);
-  });
-  std::vector<std::vector<std::pair<int, double>>> violations(n);
-  std::vector<double> slack(n);
-  for (int round = 1;; ++round) {
-    const auto& p = auction.prices();
-    const auto& s = auction.col_of_row();
-    const double eps = auction.eps();
-    tbb::parallel_for(tbb::blocked_range<int>(0, n, 16), [&](const tbb::blocked_range<int>& r) {
-      for (int i = r.begin(); i != r.end(); ++i) {
-        const double mine = cost(i, s[i]) + p[s[i]];
-        double best = mine;
-        violations[i].clear();
-        for (int j = 0; j < n; ++j) {
-          const double c = cost(i, j);
-          const double w = c + p[j];
-          best = std::min(best, w);
-          if (w < mine - 2 * eps) violations[i].emplace_back(j, c);
-        }
-        slack[i] = mine - best;
-      }
-    });
-    bool any = false;
-    double worst = 0;
+  // 2. Coarse prices: auction with eps-scaling down to eps_coarse, then one dense check at that eps adds the
+  //    pairs the k-NN graph missed (long-range transport), and the auction settles them (warm, from a start eps
+  //    well below the largest violation: a restart at the violation's size would disturb every price).
+  const double eps_coarse = std::max(1e-4 * diag, tol_row);
+  SparseAuction auction(n);
+  for (int i = 0; i < n; ++i) auction.add_edges(i, rows[i]);
+  auction.solve(std::max(longest / 4, eps_coarse), eps_coarse, 8.0);
+  if (check.run(auction.col_of_row(), auction.prices(), 2 * eps_coarse, keep) > 0) {
     for (int i = 0; i < n; ++i)
-      if (!violations[i].empty()) {
-        // Only the most attractive few: the auction finds out whether it wants more (next round).
-        auto& v = violations[i];
-        const size_t keep = std::min<size_t>(v.size(), static_cast<size_t>(4 * settings.candidates));
-        std::partial_sort(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(keep), v.end(),
-                          [&](const auto& x, const auto& y) {
-                            return x.second + p[x.first] < y.second + p[y.first] ||
-                                   (x.second + p[x.first] == y.second + p[y.first] && x.first < y.first);
-                          });
-        v.resize(keep);
-        if (auction.add_edges(i, v) > 0) {
-          any = true;
-          worst = std::max(worst, slack[i]);
-        }
+      if (!check.violations(i).empty()) {
+        auction.add_edges(i, check.violations(i));
+        rows[i].insert(rows[i].end(), check.violations(i).begin(), check.violations(i).end());
       }
-    if (!any) {
+    auction.solve(std::max(check.worst_slack_of_violating_rows() / 64, eps_coarse), eps_coarse, 8.0);
+  }
+  result.bids = auction.num_bids();
+
+  // 3. Exact shortest augmenting paths on the graph from the auction's prices (short paths: the prices are
+  //    already nearly optimal), then the certificate on the full problem: with the final prices p,
+  //    u_i = min over ALL j of (c_ij + p_j) and v_j = -p_j are feasible duals, so the optimum is at least
+  //    sum(u) + sum(v) and  total - optimum <= gap = sum_i [c_i,s(i) + p_s(i) - u_i]. Rows with a slack above
+  //    tol_row get their violating pairs (the assignment frees them) and are re-augmented; repeat until no row
+  //    has one. Then gap <= n tol_row = tolerance x diagonal.
+  SparseShortestPath sap(n);
+  for (int i = 0; i < n; ++i) sap.add_edges(i, rows[i]);
+  sap.reset(auction.prices());
+  sap.solve();
+  check.reset();
+  for (int round = 1;; ++round) {
+    const int violating = check.run(sap.col_of_row(), sap.prices(), tol_row, keep);
+    bool added = false;
+    for (int i = 0; i < n && violating > 0; ++i)
+      if (!check.violations(i).empty() && sap.add_edges(i, check.violations(i)) > 0) added = true;
+    if (!added) {  // certified (or, after rounding trouble, nothing new to add: the bound holds either way)
       result.rounds = round;
-      for (int i = 0; i < n; ++i) result.gap_bound += slack[i];
       break;
     }
-    // Re-run the scaling from the size of the worst violation, warm-started from the current prices: bidding
-    // directly at eps_final would need (price change / eps_final) bids.
-    auction.solve(std::max(worst, eps_final), eps_final, 8.0);
+    sap.solve();
   }
-  result.match = auction.col_of_row();
+  result.gap_bound = check.total_slack();
+  result.match = sap.col_of_row();
   for (int i = 0; i < n; ++i) result.total += distance(a, i, b, result.match[i]);
-  result.edges = auction.num_edges();
-  result.bids = auction.num_bids();
+  result.edges = sap.num_edges();
+  result.path_scans = sap.num_scanned();
   return result;
 }
 

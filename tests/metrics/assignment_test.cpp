@@ -89,3 +89,80 @@ TEST_CASE("a graph without a perfect matching is completed before the auction") 
   std::sort(m.begin(), m.end());
   CHECK(m == std::vector<int>{0, 1, 2});
 }
+
+TEST_CASE("shortest augmenting paths: exact optimum on complete and sparse graphs, warm re-solve after new edges") {
+  for (int n : {1, 4, 30, 120}) {
+    for (int distinct : {0, 3}) {  // continuous costs, and integer costs with many ties
+      const Eigen::MatrixXd c = random_costs(n, 11 * n + distinct, distinct);
+      double ref = 0;
+      hungarian(c, &ref);
+      // complete graph
+      SparseShortestPath full(n);
+      for (int i = 0; i < n; ++i) {
+        std::vector<std::pair<int, double>> e;
+        for (int j = 0; j < n; ++j) e.emplace_back(j, c(i, j));
+        full.add_edges(i, e);
+      }
+      full.solve();
+      double total = 0;
+      for (int i = 0; i < n; ++i) total += c(i, full.col_of_row()[i]);
+      CHECK(total == doctest::Approx(ref).epsilon(1e-12));
+      // complementary slackness holds exactly (up to rounding) on every edge: the prices certify optimality
+      const std::vector<double> p = full.prices();
+      for (int i = 0; i < n; ++i) {
+        CHECK(full.slack(i) <= 1e-12);
+        for (int j = 0; j < n; ++j) CHECK(c(i, full.col_of_row()[i]) + p[full.col_of_row()[i]] <= c(i, j) + p[j] + 1e-12);
+      }
+      // sparse graph: the identity permutation plus 3 random columns per row; then every edge added (warm)
+      SparseShortestPath sparse(n);
+      Rng rng(5 * n + distinct);
+      for (int i = 0; i < n; ++i) {
+        std::vector<std::pair<int, double>> e{{i, c(i, i)}};
+        for (int t = 0; t < 3; ++t) {
+          const int j = static_cast<int>(rng.below(static_cast<uint64_t>(n)));
+          e.emplace_back(j, c(i, j));
+        }
+        sparse.add_edges(i, e);
+      }
+      sparse.solve();
+      double graph_total = 0;
+      for (int i = 0; i < n; ++i) graph_total += c(i, sparse.col_of_row()[i]);
+      CHECK(graph_total >= ref - 1e-9);
+      for (int i = 0; i < n; ++i) {
+        std::vector<std::pair<int, double>> e;
+        for (int j = 0; j < n; ++j) e.emplace_back(j, c(i, j));
+        sparse.add_edges(i, e);  // frees the rows the new edges undercut
+      }
+      sparse.solve();
+      total = 0;
+      std::vector<int> m = sparse.col_of_row();
+      for (int i = 0; i < n; ++i) total += c(i, m[i]);
+      CHECK(total == doctest::Approx(ref).epsilon(1e-12));
+      std::sort(m.begin(), m.end());
+      for (int i = 0; i < n; ++i) CHECK(m[i] == i);
+    }
+  }
+  // warm start from given prices: same optimum
+  const Eigen::MatrixXd c = random_costs(40, 99);
+  double ref = 0;
+  hungarian(c, &ref);
+  SparseShortestPath s(40);
+  for (int i = 0; i < 40; ++i) {
+    std::vector<std::pair<int, double>> e;
+    for (int j = 0; j < 40; ++j) e.emplace_back(j, c(i, j));
+    s.add_edges(i, e);
+  }
+  std::vector<double> prices(40);
+  Rng rng(3);
+  for (double& q : prices) q = rng.uniform();
+  s.reset(prices);
+  s.solve();
+  double total = 0;
+  for (int i = 0; i < 40; ++i) total += c(i, s.col_of_row()[i]);
+  CHECK(total == doctest::Approx(ref).epsilon(1e-12));
+  // a graph without a perfect matching is refused
+  SparseShortestPath bad(2);
+  bad.add_edges(0, {{0, 1.0}});
+  bad.add_edges(1, {{0, 1.0}});
+  CHECK_THROWS_AS(bad.solve(), InvalidInput);
+}

@@ -8,6 +8,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 using namespace sdfkit;
@@ -70,6 +71,58 @@ TEST_CASE("exact EMD equals the brute-force Hungarian optimum (n <= 200)") {
   d.bottomRows(20) = d.topRows(20);
   const Points d2 = random_cloud(40, 10);
   CHECK(emd_exact(d, d2).total == doctest::Approx(emd_hungarian(d, d2).total).epsilon(1e-10));
+}
+
+// The sparse + certified solver against the dense Hungarian method on inputs that defeat k-NN candidate graphs:
+// duplicates, all points equal, far clusters of unequal sizes, a few distinct points with many copies.
+void check_against_dense(const Points& a, const Points& b, const EmdSettings& settings = {}) {
+  const EmdResult ref = emd_hungarian(a, b);
+  const EmdResult e = emd_exact(a, b, settings);
+  const double diag = 4.0;  // every input below lies in [-2, 2]^3 or closer
+  CHECK(e.gap_bound >= 0);
+  CHECK(e.gap_bound <= settings.tolerance * diag * std::sqrt(3.0) + 1e-12);
+  CHECK(e.total >= ref.total - 1e-9);
+  CHECK(e.total <= ref.total + e.gap_bound + 1e-9);
+  CHECK(e.total == doctest::Approx(ref.total).epsilon(1e-11));
+  std::vector<int> m = e.match;
+  std::sort(m.begin(), m.end());
+  for (int i = 0; i < static_cast<int>(m.size()); ++i) REQUIRE(m[i] == i);
+}
+
+TEST_CASE("sparse + certified EMD equals the dense solver on degenerate and clustered inputs") {
+  SUBCASE("duplicated points on both sides (vertex sampling with replacement, as the disn protocol does)") {
+    const Points va = random_cloud(23, 40), vb = random_cloud(37, 41, 0.8);
+    Points a(250, 3), b(250, 3);
+    Rng rng(42);
+    for (int i = 0; i < 250; ++i) {
+      a.row(i) = va.row(static_cast<Eigen::Index>(rng.below(23)));
+      b.row(i) = vb.row(static_cast<Eigen::Index>(rng.below(37)));
+    }
+    check_against_dense(a, b);
+    check_against_dense(a, b, EmdSettings{EmdMethod::exact, 2, 1e-9});  // tiny graph: the certificate does the work
+  }
+  SUBCASE("all points of one set equal; all points of both sets equal") {
+    const Points b = random_cloud(200, 43);
+    Points a(200, 3);
+    a.rowwise() = Eigen::RowVector3d(0.3, -0.2, 0.1);
+    check_against_dense(a, b);
+    const EmdResult same = emd_exact(a, a);
+    CHECK(same.total == 0.0);
+  }
+  SUBCASE("two far clusters of unequal sizes (80/20 against 20/80)") {
+    const Points a = clustered(240, 44, 0.8, 1.5), b = clustered(240, 45, 0.2, 1.5);
+    check_against_dense(a, b);
+    check_against_dense(a, b, EmdSettings{EmdMethod::exact, 4, 1e-9});
+  }
+  SUBCASE("three distinct points with many copies against three others") {
+    Rng rng(46);
+    Points a(180, 3), b(180, 3);
+    for (int i = 0; i < 180; ++i) {
+      a.row(i) << static_cast<double>(rng.below(3)), 0, 0;
+      b.row(i) << 0.5 * static_cast<double>(rng.below(3)), 1, 0;
+    }
+    check_against_dense(a, b);
+  }
 }
 
 TEST_CASE("EMD of a permutation of the same cloud is 0; of a translated cloud it is n |t|") {
