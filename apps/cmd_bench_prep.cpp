@@ -79,7 +79,8 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
     int repeats = 3;
     int dense_res = 257;
     long band_points = 10000;
-    std::string json_out;
+    std::string json_out, sign = "auto";
+    double band = 0.0;
     bool no_dense = false;
   };
   auto o = std::make_shared<Opts>();
@@ -95,6 +96,12 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_flag("--no-dense", o->no_dense, "skip the dense baseline");
+  app.add_option("--band", o->band, "grid band half-width as in `sdfkit prep --band` (0 = 3 voxels)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--sign", o->sign, "sign method as in `sdfkit prep --sign`: auto or winding")
+      ->check(CLI::IsMember({"auto", "winding"}))
+      ->capture_default_str();
   app.add_option("--json", o->json_out, "also write the results as JSON to this file");
   return [o] {
     std::vector<Shape> shapes = {{"closed torus 51k", bench_closed()}, {"soup 10 spheres 51k", bench_soup()}};
@@ -108,14 +115,16 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
     for (const auto& f : files) shapes.push_back({fs::path(f).filename().string(), read_mesh(f)});
     const fs::path tmp = fs::temp_directory_path() / ("sdfkit_bench_prep_" + std::to_string(::getpid()));
     Json results = Json::array();
-    std::printf("%-22s %7s %8s %8s %8s %8s %10s %8s %8s %9s %9s %9s %9s %9s %8s\n", "shape", "tris", "1thr s",
-                "1thr cpu", "2thr s", "2thr cpu", "voxels", "% 257^3", "grid MB", "257^3 MB", "dense s", "dense cpu",
-                "mean err", "max err", "sign ok");
+    std::printf("%-22s %7s %5s %8s %8s %8s %8s %10s %8s %8s %9s %9s %9s %9s %9s %8s\n", "shape", "tris", "sign",
+                "1thr s", "1thr cpu", "2thr s", "2thr cpu", "voxels", "% 257^3", "grid MB", "257^3 MB", "dense s",
+                "dense cpu", "mean err", "max err", "sign ok");
     for (const auto& sh : shapes) {
       PrepareSettings s;
+      s.grid.band = o->band;
+      s.grid.sign = o->sign == "winding" ? SignMethod::WindingNumber : SignMethod::Auto;
       std::vector<double> t1, t2, c1, c2;
       PrepareStatus st;
-      for (int threads : {1, 2}) {
+      for (int threads : {2, 1}) {  // 1 thread last: its stage times are the ones printed
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
         for (int r = 0; r < o->repeats; ++r) {
           s.overwrite = true;
@@ -129,7 +138,11 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
       const double rss_sparse = peak_rss_mb();
       const long dense_voxels = static_cast<long>(o->dense_res) * o->dense_res * o->dense_res;
 
-      // Error of the interpolated grid against brute force at random points with |sdf| <= 0.1.
+      // Error of the interpolated grid against brute force at random points with |sdf| <= 0.1 that lie in the
+      // stored band (at least one voxel inside it, so that trilinear interpolation reads band values only).
+      const double h = s.grid.voxel_size;
+      const double width = o->band > 0 ? std::ceil(o->band / h) * h : 3 * h;
+      const double err_reach = std::min(0.1, width - h);
       const Normalization norm = unit_sphere_normalization(sh.mesh);
       const Mesh object = orient_consistently(apply_normalization(validate_mesh(sh.mesh, sh.name), norm));
       const SparseSdf grid = SparseSdf::read(ShapeFiles((tmp / "shape").string()).sdf);
@@ -153,9 +166,9 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
           if (a + b > 1) a = 1 - a, b = 1 - b;
           const Vec3 x = object.V.row(object.F(f, 0)).transpose() * (1 - a - b) +
                          object.V.row(object.F(f, 1)).transpose() * a + object.V.row(object.F(f, 2)).transpose() * b;
-          const Vec3 d = Vec3(rng.normal(), rng.normal(), rng.normal()).normalized() * rng.uniform(0, 0.1);
+          const Vec3 d = Vec3(rng.normal(), rng.normal(), rng.normal()).normalized() * rng.uniform(0, err_reach);
           const Vec3 p = x + d;
-          if (dist(p) > 0.1) continue;
+          if (dist(p) > err_reach) continue;
           P.row(n++) = p.transpose();
         }
       }
@@ -203,10 +216,15 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
       const long side = std::lround(2.4 / s.grid.voxel_size) + 1;
       const long lattice = side * side * side;
       const double pct = 100.0 * static_cast<double>(st.active_voxels) / static_cast<double>(lattice);
-      std::printf("%-22s %7ld %8.3f %8.3f %8.3f %8.3f %10ld %7.2f%% %8.2f %9.1f %9.2f %9.2f %9.5f %9.5f %7.2f%%\n",
-                  sh.name.c_str(), static_cast<long>(sh.mesh.F.rows()), m1, median(c1), m2, median(c2),
+      std::printf("%-22s %7ld %5s %8.3f %8.3f %8.3f %8.3f %10ld %7.2f%% %8.2f %9.1f %9.2f %9.2f %9.5f %9.5f %7.2f%%\n",
+                  sh.name.c_str(), static_cast<long>(sh.mesh.F.rows()),
+                  st.sign == SignMethod::PseudoNormal ? "pn" : "wn", m1, median(c1), m2, median(c2),
                   st.active_voxels, pct, st.grid_bytes / 1e6, lattice * 4e-6, dense_s, dense_cpu, mean_err, max_err,
                   100.0 * sign_ok / std::max<double>(1, static_cast<double>(P.rows())));
+      std::printf("  stages (wall s, last 1-thread run): mesh %.3f | grid: setup %.3f band %.3f insert %.3f sign %.3f | "
+                  "samples %.3f (%ld candidates) | gt %.3f | files %.3f\n",
+                  st.seconds_mesh, st.grid.seconds_setup, st.grid.seconds_topology, st.grid.seconds_exact,
+                  st.grid.seconds_sign, st.seconds_samples, st.samples.candidates, st.seconds_gt, st.seconds_files);
       std::fflush(stdout);
       results.push_back({{"shape", sh.name},
                          {"triangles", sh.mesh.F.rows()},
@@ -224,18 +242,32 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
                          {"dense_bytes", dense_voxels * 4},
                          {"dense_seconds_2_threads", dense_s},
                          {"band_points", P.rows()},
+                         {"band_points_max_abs_sdf", err_reach},
                          {"mean_abs_error", mean_err},
                          {"max_abs_error", max_err},
                          {"sign_agreement", static_cast<double>(sign_ok) / std::max<double>(1, double(P.rows()))},
                          {"peak_rss_mb_after_sparse", rss_sparse},
                          {"peak_rss_mb_after_dense", peak_rss_mb()},
-                         {"gt_source", st.gt_source}});
+                         {"gt_source", st.gt_source},
+                         {"sign", sign_method_name(st.sign)},
+                         {"stage_seconds_last_run",
+                          {{"mesh", st.seconds_mesh},
+                           {"grid_setup", st.grid.seconds_setup},
+                           {"grid_band", st.grid.seconds_topology},
+                           {"grid_insert", st.grid.seconds_exact},
+                           {"sample_candidates", st.samples.candidates},
+                           {"grid_sign", st.grid.seconds_sign},
+                           {"samples", st.seconds_samples},
+                           {"gt", st.seconds_gt},
+                           {"files", st.seconds_files}}},
+                         {"band", o->band > 0 ? o->band : 3 * s.grid.voxel_size}});
     }
     std::error_code ec;
     fs::remove_all(tmp, ec);
-    std::printf("voxel %.6f, band 0.12, 32768 samples; dense baseline = exact distance + winding sign at %d^3 "
-                "points; peak RSS of the process %.0f MB\n",
-                2.4 / 256, o->dense_res, peak_rss_mb());
+    std::printf("voxel %.6f, band %.6f (%s), 32768 samples; sign pn = pseudo-normal, wn = winding number; dense "
+                "baseline = exact distance + winding sign at %d^3 points; peak RSS of the process %.0f MB\n",
+                2.4 / 256, o->band > 0 ? o->band : 3 * 2.4 / 256, o->band > 0 ? "--band" : "3 voxels", o->dense_res,
+                peak_rss_mb());
     if (!o->json_out.empty()) write_json(o->json_out, results);
     return int(kOk);
   };

@@ -100,8 +100,8 @@ std::vector<ShapeJob> gather(const std::string& input) {
 
 std::function<int()> setup_prep(CLI::App& app) {
   struct Opts {
-    std::string input, out, shard, gt = "auto";
-    double voxel = 2.4 / 256, band = 0.12, uniform_share = 0.0;
+    std::string input, out, shard, gt = "auto", sign = "auto";
+    double voxel = 2.4 / 256, band = 0.0, uniform_share = 0.0;
     long samples = 32768;
     int views = 24, jobs = 0;
     uint64_t seed = 0;
@@ -116,8 +116,15 @@ std::function<int()> setup_prep(CLI::App& app) {
   app.add_option("--voxel", o->voxel, "voxel size in object units (default 2.4/256 = DISN's 257^3 grid over [-1.2,1.2]^3)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  app.add_option("--band", o->band, "half-width of the stored narrow band in object units (>= 0.1 + offset + 1 voxel)")
-      ->check(CLI::PositiveNumber)
+  app.add_option("--band", o->band,
+                 "half-width of the stored narrow band in object units; 0 = 3 voxels (samples are exact and need no "
+                 "wide band; 0.12 stores every |sdf - 0.003| <= 0.1 in the grid as DISN's dense grids do)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--sign", o->sign,
+                 "inside/outside test: auto (pseudo-normals for closed one-part meshes, else winding numbers), "
+                 "winding (generalized winding numbers always)")
+      ->check(CLI::IsMember({"auto", "winding"}))
       ->capture_default_str();
   app.add_option("--samples", o->samples, "training samples per shape, in four equal bins on d = sdf - 0.003")
       ->check(CLI::NonNegativeNumber)
@@ -154,14 +161,14 @@ std::function<int()> setup_prep(CLI::App& app) {
     PrepareSettings s;
     s.grid.voxel_size = o->voxel;
     s.grid.band = o->band;
+    s.grid.sign = o->sign == "winding" ? SignMethod::WindingNumber : SignMethod::Auto;
     s.samples.count = o->samples;
     s.samples.uniform_share = o->uniform_share;
     s.gt = o->gt == "input" ? GtSource::Input : o->gt == "iso" ? GtSource::IsoSurface : GtSource::Auto;
     s.overwrite = o->overwrite;
-    const double needed = 0.1 + s.samples.offset + 1.1 * o->voxel;
-    if (o->band < needed)
-      throw InvalidInput("--band " + std::to_string(o->band) + ": must be at least " + std::to_string(needed) +
-                         " (0.1 + 0.003 + 1.1 voxel) so that every sample bin lies inside the band");
+    if (o->band > 0 && o->band < o->voxel)
+      throw InvalidInput("--band " + std::to_string(o->band) + ": must be 0 (3 voxels) or at least one voxel (" +
+                         std::to_string(o->voxel) + ")");
 
     std::vector<ShapeJob> all = gather(o->input);
     std::sort(all.begin(), all.end(), [](const ShapeJob& a, const ShapeJob& b) {
@@ -253,7 +260,7 @@ std::function<int()> setup_prep(CLI::App& app) {
                        {"views", o->views},
                        {"gt", o->gt},
                        {"gt_iso", s.gt_iso},
-                       {"sign", "winding_number"},
+                       {"sign", o->sign},
                        {"seed", o->seed}}},
                      {"counts", {{"shapes", jobs.size()}, {"ok", ok + skipped}, {"failed", failed}}},
                      {"shapes", shapes}};

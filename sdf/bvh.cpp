@@ -68,40 +68,49 @@ TriangleBvh TriangleBvh::build(const Mesh& mesh, int leaf_size) {
   Builder builder{centroid, tri_box, bvh.face, bvh.nodes, std::max(1, leaf_size)};
   builder.build(0, nf);
   bvh.corners.resize(nf);
-  for (int32_t s = 0; s < nf; ++s)
+  bvh.boxes.resize(nf);
+  for (int32_t s = 0; s < nf; ++s) {
     for (int k = 0; k < 3; ++k) bvh.corners[s][k] = mesh.V.row(mesh.F(bvh.face[s], k)).transpose();
+    bvh.boxes[s] = tri_box[bvh.face[s]];
+  }
   return bvh;
 }
 
-Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, int* region) {
   // Voronoi-region walk (Ericson, Real-Time Collision Detection, 5.1.5).
+  int dummy = 0;
+  int& r = region ? *region : dummy;
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
+  if (d1 <= 0 && d2 <= 0) return r = kVertexA, a;
   const Vec3 bp = p - b;
   const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
+  if (d3 >= 0 && d4 <= d3) return r = kVertexB, b;
   const double vc = d1 * d4 - d3 * d2;
   if (vc <= 0 && d1 >= 0 && d3 <= 0) {
     const double den = d1 - d3;
+    r = den > 0 ? kEdgeAB : kVertexA;
     return den > 0 ? Vec3(a + (d1 / den) * ab) : a;
   }
   const Vec3 cp = p - c;
   const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
+  if (d6 >= 0 && d5 <= d6) return r = kVertexC, c;
   const double vb = d5 * d2 - d1 * d6;
   if (vb <= 0 && d2 >= 0 && d6 <= 0) {
     const double den = d2 - d6;
+    r = den > 0 ? kEdgeCA : kVertexA;
     return den > 0 ? Vec3(a + (d2 / den) * ac) : a;
   }
   const double va = d3 * d6 - d5 * d4;
   if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
     const double den = (d4 - d3) + (d5 - d6);
+    r = den > 0 ? kEdgeBC : kVertexB;
     return den > 0 ? Vec3(b + ((d4 - d3) / den) * (c - b)) : b;
   }
   const double sum = va + vb + vc;
   if (!(sum > 0)) {
-    // Degenerate (zero-area) triangle: closest of the three edges.
+    // Degenerate (zero-area) triangle: closest of the three edges (reported as the face: it has no normal).
+    r = kFace;
     Vec3 best = a;
     double bd = (p - a).squaredNorm();
     const Vec3* e[3][2] = {{&a, &b}, {&b, &c}, {&c, &a}};
@@ -118,6 +127,7 @@ Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, cons
     return best;
   }
   const double v = vb / sum, w = vc / sum;
+  r = kFace;
   return a + v * ab + w * ac;
 }
 

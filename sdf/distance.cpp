@@ -17,12 +17,28 @@ double box_distance2(const Eigen::AlignedBox3d& b, const Vec3& p) {
 
 MeshDistance::MeshDistance(const Mesh& mesh) : bvh_(TriangleBvh::build(mesh, 4)) {
   require(mesh.F.rows() > 0, "MeshDistance: the mesh has no faces");
+  slot_of_face_.resize(bvh_.face.size());
+  for (size_t s = 0; s < bvh_.face.size(); ++s) slot_of_face_[static_cast<size_t>(bvh_.face[s])] = static_cast<int32_t>(s);
 }
 
-ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound) const {
+ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound) const { return closest(p, upper_bound, -1); }
+
+ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound, int32_t hint) const {
   ClosestPoint best;
   double best2 = upper_bound * upper_bound;
   best.distance = upper_bound;
+  if (hint >= 0 && static_cast<size_t>(hint) < slot_of_face_.size()) {
+    const auto& t = bvh_.corners[static_cast<size_t>(slot_of_face_[static_cast<size_t>(hint)])];
+    int region = 0;
+    const Vec3 q = closest_point_on_triangle(p, t[0], t[1], t[2], &region);
+    const double d2 = (q - p).squaredNorm();
+    if (d2 < best2) {
+      best2 = d2;
+      best.point = q;
+      best.face = hint;
+      best.region = region;
+    }
+  }
   struct Entry {
     int32_t node;
     double d2;
@@ -36,13 +52,16 @@ ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound) const {
     const auto& node = bvh_.nodes[e.node];
     if (node.leaf()) {
       for (int32_t s = node.begin; s < node.end; ++s) {
+        if (box_distance2(bvh_.boxes[s], p) > best2) continue;  // cannot be closer (ties still compared below)
         const auto& t = bvh_.corners[s];
-        const Vec3 q = closest_point_on_triangle(p, t[0], t[1], t[2]);
+        int region = 0;
+        const Vec3 q = closest_point_on_triangle(p, t[0], t[1], t[2], &region);
         const double d2 = (q - p).squaredNorm();
         if (d2 < best2 || (d2 == best2 && best.face >= 0 && bvh_.face[s] < best.face)) {
           best2 = d2;
           best.point = q;
           best.face = bvh_.face[s];
+          best.region = region;
         }
       }
       continue;

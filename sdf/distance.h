@@ -11,6 +11,7 @@ struct ClosestPoint {
   double distance = 0;  ///< Euclidean distance to the closest triangle
   Vec3 point = Vec3::Zero();
   int32_t face = -1;    ///< index of the closest face in the mesh
+  int region = -1;      ///< feature of that face the point lies on (TriangleRegion of sdf/bvh.h)
 };
 
 class MeshDistance {
@@ -20,6 +21,10 @@ class MeshDistance {
   /// Exact closest point on the mesh (thread-safe). `upper_bound`: search only closer than this (returns
   /// distance = upper_bound and face = -1 if nothing is closer).
   [[nodiscard]] ClosestPoint closest(const Vec3& p, double upper_bound = 1e300) const;
+  /// Same, starting from mesh face `hint` (e.g. the closest face of a nearby point): its distance bounds the
+  /// search from the start, which prunes most of the tree. Same distance as without a hint (at exact ties
+  /// between faces the reported face may differ).
+  [[nodiscard]] ClosestPoint closest(const Vec3& p, double upper_bound, int32_t hint) const;
   [[nodiscard]] double operator()(const Vec3& p) const { return closest(p).distance; }
   /// Unsigned distances of every row of P, in parallel (TBB).
   [[nodiscard]] Eigen::VectorXd query(const Points& P) const;
@@ -29,6 +34,7 @@ class MeshDistance {
 
  private:
   TriangleBvh bvh_;
+  std::vector<int32_t> slot_of_face_;  ///< inverse of bvh_.face
 };
 
 }  // namespace sdfkit

@@ -78,6 +78,12 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
   auto report = [&](double f) {
     if (progress && !progress(f)) throw Error(source + ": cancelled");
   };
+  auto clock = std::chrono::steady_clock::now();
+  auto lap = [&clock](double& out) {
+    const auto now = std::chrono::steady_clock::now();
+    out += std::chrono::duration<double>(now - clock).count();
+    clock = now;
+  };
   const Mesh mesh = validate_mesh(input, source, &st.mesh);
   if (read_report) st.mesh = *read_report;  // the reader already cleaned: keep its counts
   const Normalization norm = unit_sphere_normalization(mesh);
@@ -85,22 +91,33 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
   const Mesh object = orient_consistently(apply_normalization(mesh, norm), &orep);
   st.flipped_faces = orep.flipped_faces;
   st.closed_input = orep.closed && orep.components == 1;
+  lap(st.seconds_mesh);
   report(0.1);
 
+  // One sign method for the grid and the samples (pseudo-normals for closed one-part meshes, else winding).
+  const SignMethod sign = resolve_sign_method(object, settings.grid.sign, settings.grid.voxel_size);
   SparseSdfSettings grid_settings = settings.grid;
   grid_settings.orient_faces = false;  // done above, shared with the samples
-  const SparseSdf sdf = SparseSdf::from_mesh(object, grid_settings, nullptr,
+  grid_settings.sign = sign;
+  st.sign = sign;
+  SampleSettings sample_settings = settings.samples;
+  sample_settings.sign = sign == SignMethod::None ? SignMethod::WindingNumber : sign;
+  const SparseSdf sdf = SparseSdf::from_mesh(object, grid_settings, &st.grid,
                                              [&](double f) { return !progress || progress(0.1 + 0.6 * f); });
   st.active_voxels = sdf.active_voxel_count();
   st.grid_bytes = sdf.memory_bytes();
+  lap(st.seconds_mesh);  // sign-method choice counted with the mesh work; the grid's own stages are in st.grid
+  st.seconds_mesh -= st.grid.seconds_setup + st.grid.seconds_topology + st.grid.seconds_exact + st.grid.seconds_sign;
   report(0.7);
-  const MatrixXfR samples = disn_samples(object, sdf, settings.samples, &st.samples);
+  const MatrixXfR samples = disn_samples(object, sdf, sample_settings, &st.samples);
+  lap(st.seconds_samples);
   report(0.85);
   const bool use_input = settings.gt == GtSource::Input || (settings.gt == GtSource::Auto && st.closed_input);
   st.gt_source = use_input ? "input" : "iso";
   Mesh gt = use_input ? object : iso_surface(sdf, settings.gt_iso);
   gt.colors.resize(0, 3);
   if (gt.F.rows() == 0) throw InvalidInput(source + ": the iso-surface of the SDF is empty (no inside anywhere)");
+  lap(st.seconds_gt);
   report(0.95);
 
   // A previous, possibly different, result must not look complete while the new files are written.
@@ -126,7 +143,8 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
   j["grid"] = {{"voxel_size", sdf.voxel_size()},
                {"background", sdf.background()},
                {"active_voxels", st.active_voxels},
-               {"sign", settings.grid.sign == SignMethod::WindingNumber ? "winding_number" : "none"}};
+               {"band", settings.grid.band > 0 ? settings.grid.band : 3 * settings.grid.voxel_size},
+               {"sign", sign_method_name(sign)}};
   j["samples"] = {{"count", samples.rows()},
                   {"offset", settings.samples.offset},
                   {"edges", settings.samples.edges},
@@ -137,6 +155,7 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
                   {"seed", settings.samples.seed}};
   j["gt"] = {{"source", st.gt_source}, {"iso", use_input ? 0.0 : settings.gt_iso}, {"setting", gt_name(settings.gt)}};
   write_json(files.norm, j);
+  lap(st.seconds_files);
   report(1.0);
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return st;

@@ -34,10 +34,15 @@ struct PrepareStatus {
   long flipped_faces = 0;
   bool closed_input = false;
   std::string gt_source;    ///< "input" or "iso"
+  SignMethod sign = SignMethod::None;  ///< sign method used for the grid and the samples
   long active_voxels = 0;
   size_t grid_bytes = 0;
   SampleReport samples;
   double seconds = 0;       ///< wall time of this shape
+  /// Wall seconds per stage: validate + normalise + orient, grid (SparseSdfStats has its stages), samples,
+  /// gt mesh, files.
+  double seconds_mesh = 0, seconds_samples = 0, seconds_gt = 0, seconds_files = 0;
+  SparseSdfStats grid;
 };
 
 /// The files of a prepared shape folder.

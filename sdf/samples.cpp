@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "core/random.h"
 #include "sdf/distance.h"
+#include "sdf/pseudonormal.h"
 #include "sdf/sparse_sdf_vdb.h"
 #include "sdf/winding.h"
 
@@ -11,6 +12,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <limits>
+#include <optional>
 #include <vector>
 
 namespace sdfkit {
@@ -21,29 +25,133 @@ struct Candidate {
   float sdf;
 };
 
-/// Exact signed distance of a point: exact unsigned distance; the sign of the nearest voxel when the point is
-/// too far from the surface for a crossing in between, else the winding number.
+/// Exact signed distance of a point: exact unsigned distance (BVH); the sign from the pseudo-normal at the
+/// closest feature (closed meshes), or else from the nearest voxel of the grid when the point is too far from the
+/// surface for a crossing in between, else from the winding number.
 struct ExactSigned {
   const MeshDistance& dist;
-  const WindingNumber& wn;
+  const WindingNumber* wn;      ///< null when `normals` decide
+  const PseudoNormals* normals;
   const openvdb::FloatGrid& grid;
   double h;
-  long* winding_calls = nullptr;
 
+  /// NaN when the point is farther than `bound` from the mesh.
   template <typename Accessor>
-  double operator()(const Vec3& p, Accessor& acc, bool& used_winding) const {
-    const double u = dist.closest(p).distance;
-    used_winding = false;
+  double operator()(const Vec3& p, Accessor& acc, double bound = 1e300, int32_t hint = -1) const {
+    const ClosestPoint cp = dist.closest(p, bound, hint);
+    if (cp.face < 0) return std::numeric_limits<double>::quiet_NaN();
+    const double u = cp.distance;
+    if (normals) return normals->inside(p, cp) ? -u : u;
     if (u > 0.9 * h) {
       const openvdb::Coord c(static_cast<int>(std::lround(p.x() / h)), static_cast<int>(std::lround(p.y() / h)),
                              static_cast<int>(std::lround(p.z() / h)));
       const float v = acc.getValue(c);
       if (v != 0.f) return v < 0 ? -u : u;
     }
-    used_winding = true;
-    return wn(p) > 0.5 ? -u : u;
+    return (*wn)(p) > 0.5 ? -u : u;
   }
 };
+
+/// A box of `size`^3 voxel cells with its lowest voxel at `origin` (index space): it spans
+/// [origin - 0.5, origin + size - 0.5] voxels on each axis.
+struct Cell {
+  openvdb::Coord origin;
+  int32_t size;
+  int32_t face;  ///< closest face of the enclosing coarse cell's centre (a hint for exact queries)
+};
+
+constexpr int32_t kCoarse = 4;  ///< coarse cell: 4^3 voxels (exact distance at its centre)
+constexpr int32_t kFine = 2;    ///< near-surface sub-cell: 2^3 voxels (bounds from the grid's voxel values)
+constexpr int32_t kRoot = 32;   ///< root blocks of the hierarchy
+
+/// Cells that can hold points of each bin: a hierarchy of exact distances at block centres prunes space farther
+/// than the bins reach; coarse cells crossed by no surface take one sign; cells the surface may cross are split
+/// into 2^3-voxel sub-cells bounded by the grid's exact band values (and signed values beyond the band). The lists
+/// cover every point of each bin (distance is 1-Lipschitz), in a deterministic order.
+std::array<std::vector<Cell>, 4> candidate_cells(const Mesh& mesh, const MeshDistance& dist,
+                                                 const openvdb::FloatGrid& grid, double h,
+                                                 const std::array<double, 5>& lo_hi_edges, double offset) {
+  std::array<double, 4> lo{}, hi{};
+  for (int b = 0; b < 4; ++b) {
+    lo[b] = lo_hi_edges[b] + offset;
+    hi[b] = lo_hi_edges[b + 1] + offset;
+  }
+  const double reach = std::max(std::abs(lo[0]), std::abs(hi[3])) + 1e-6;
+  const double slack = 1e-3 * h;  // float rounding of the grid values
+  Box3 box;
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) box.extend(mesh.V.row(i).transpose());
+  const auto to_index_lo = [&](double x) { return static_cast<int32_t>(std::floor((x - reach) / h)) - 1; };
+  const auto to_index_hi = [&](double x) { return static_cast<int32_t>(std::ceil((x + reach) / h)) + 1; };
+  auto floor_div = [](int32_t a, int32_t d) { return a >= 0 ? a / d : -((-a + d - 1) / d); };
+  openvdb::Coord rlo, rhi;
+  for (int a = 0; a < 3; ++a) {
+    rlo[a] = floor_div(to_index_lo(box.lo[a]), kRoot);
+    rhi[a] = floor_div(to_index_hi(box.hi[a]), kRoot);
+  }
+  std::vector<openvdb::Coord> roots;
+  for (int32_t x = rlo.x(); x <= rhi.x(); ++x)
+    for (int32_t y = rlo.y(); y <= rhi.y(); ++y)
+      for (int32_t z = rlo.z(); z <= rhi.z(); ++z) roots.emplace_back(x * kRoot, y * kRoot, z * kRoot);
+
+  std::vector<std::array<std::vector<Cell>, 4>> per_root(roots.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, roots.size(), 1), [&](const auto& range) {
+    auto acc = grid.getConstAccessor();
+    const double half_voxel_diag = 0.8661 * h;
+    auto add = [&](std::array<std::vector<Cell>, 4>& out, const Cell& c, double a, double b) {
+      for (int k = 0; k < 4; ++k)
+        if (b + slack >= lo[k] && a - slack <= hi[k]) out[k].push_back(c);
+    };
+    std::function<void(std::array<std::vector<Cell>, 4>&, const openvdb::Coord&, int32_t, int32_t)> visit =
+        [&](std::array<std::vector<Cell>, 4>& out, const openvdb::Coord& o, int32_t size, int32_t hint) {
+          const Vec3 centre = (Vec3(o.x(), o.y(), o.z()) + Vec3::Constant(0.5 * (size - 1))) * h;
+          const double r = 0.8661 * size * h;
+          const ClosestPoint cp = dist.closest(centre, reach + r, hint);
+          if (cp.face < 0) return;  // the whole block is farther than every bin
+          if (size > kCoarse) {
+            const int32_t half = size / 2;
+            for (int c = 0; c < 8; ++c)
+              visit(out, o.offsetBy(c & 4 ? half : 0, c & 2 ? half : 0, c & 1 ? half : 0), half, cp.face);
+            return;
+          }
+          const double d = cp.distance;
+          if (d > r) {  // no surface inside: one sign, that of any of its voxels
+            const float g = acc.getValue(o);
+            const double s = g < 0 ? -1.0 : 1.0;
+            add(out, {o, size, cp.face}, s > 0 ? d - r : -(d + r), s > 0 ? d + r : -(d - r));
+            return;
+          }
+          for (int32_t x = 0; x < size; x += kFine)
+            for (int32_t y = 0; y < size; y += kFine)
+              for (int32_t z = 0; z < size; z += kFine) {
+                const openvdb::Coord so = o.offsetBy(x, y, z);
+                // Every point of the sub-cell is within half a voxel diagonal of one of its 8 voxels.
+                double umin = 1e300, umax = 0;
+                bool pos = false, neg = false, near = false;
+                for (int c = 0; c < 8; ++c) {
+                  const openvdb::Coord v = so.offsetBy(c & 4 ? 1 : 0, c & 2 ? 1 : 0, c & 1 ? 1 : 0);
+                  const float g = acc.getValue(v);
+                  const bool active = acc.isValueOn(v);
+                  // Beyond the band (inactive): farther than the band's width, at least one voxel.
+                  const double u = active ? std::abs(static_cast<double>(g)) : h;
+                  umin = std::min(umin, u);
+                  umax = std::max(umax, active ? u : d + r);
+                  (g < 0 ? neg : pos) = true;
+                  near = near || u <= half_voxel_diag + slack;
+                }
+                const double a = std::max(0.0, umin - half_voxel_diag), b = std::min(umax + half_voxel_diag, d + r);
+                const Cell cell{so, kFine, cp.face};
+                if (near || (pos && neg)) add(out, cell, -b, b);
+                else if (pos) add(out, cell, a, b);
+                else add(out, cell, -b, -a);
+              }
+        };
+    for (size_t i = range.begin(); i != range.end(); ++i) visit(per_root[i], roots[i], kRoot, -1);
+  });
+  std::array<std::vector<Cell>, 4> cells;
+  for (auto& r : per_root)
+    for (int b = 0; b < 4; ++b) cells[b].insert(cells[b].end(), r[b].begin(), r[b].end());
+  return cells;
+}
 
 }  // namespace
 
@@ -54,30 +162,30 @@ MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSetti
   require(!mesh.empty(), "samples: empty mesh");
   const openvdb::FloatGrid& grid = *vdb_grid(sdf);
   const double h = sdf.voxel_size();
-  const double reach = std::max(std::abs(s.edges[0] + s.offset), std::abs(s.edges[4] + s.offset)) + 1.1 * h;
-  require(sdf.background() >= reach,
-          "samples: the grid's band (" + std::to_string(sdf.background()) + ") is too narrow for the bins (needs " +
-              std::to_string(reach) + ")");
+  const double reach = std::max(std::abs(s.edges[0] + s.offset), std::abs(s.edges[4] + s.offset));
 
   const MeshDistance dist(mesh);
-  const WindingNumber wn(mesh, s.winding_beta);
-  const ExactSigned exact{dist, wn, grid, h};
+  const SignMethod method = resolve_sign_method(mesh, s.sign, h);
+  std::optional<WindingNumber> wn;
+  std::optional<PseudoNormals> normals;
+  if (method == SignMethod::PseudoNormal) normals.emplace(mesh);
+  else wn.emplace(mesh, s.winding_beta);
+  const ExactSigned exact{dist, wn ? &*wn : nullptr, normals ? &*normals : nullptr, grid, h};
 
   SampleReport rep;
+  rep.sign = method;
   rep.uniform_count = std::lround(static_cast<double>(s.count) * s.uniform_share);
   const long binned = s.count - rep.uniform_count;
   for (int b = 0; b < 4; ++b) rep.bin_quota[b] = binned / 4 + (b < binned % 4 ? 1 : 0);
 
-  // Candidate cells per bin: band voxels whose value can be within the bin once moved by up to half a cell
-  // diagonal (plus slack for the grid's float rounding).
-  const double tol = 0.8661 * h + 0.05 * h;
-  std::array<std::vector<openvdb::Coord>, 4> cells;
-  for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf)
-    for (auto it = leaf->cbeginValueOn(); it; ++it) {
-      const double v = *it;
-      for (int b = 0; b < 4; ++b)
-        if (v >= s.edges[b] + s.offset - tol && v <= s.edges[b + 1] + s.offset + tol) cells[b].push_back(it.getCoord());
-    }
+  const std::array<std::vector<Cell>, 4> cells = candidate_cells(mesh, dist, grid, h, s.edges, s.offset);
+  // Cells are drawn with probability proportional to their volume (size^3 voxels): uniform over space.
+  std::array<std::vector<int64_t>, 4> cum;
+  for (int b = 0; b < 4; ++b) {
+    int64_t total = 0;
+    cum[b].reserve(cells[b].size());
+    for (const Cell& c : cells[b]) cum[b].push_back(total += static_cast<int64_t>(c.size) * c.size * c.size);
+  }
 
   std::array<std::vector<Candidate>, 4> accepted;
   std::array<long, 4> want = rep.bin_quota;
@@ -85,35 +193,34 @@ MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSetti
   std::array<uint64_t, 4> next_batch{};
   std::array<bool, 4> exhausted{};
   constexpr int kChunk = 256, kChunks = 32;
-  long winding_calls = 0;
 
   auto fill_bin = [&](int b) {
     const long cap = s.max_candidates_per_bin > 0 ? s.max_candidates_per_bin : 64 * std::max(want[b], 1024L);
     if (cells[b].empty()) exhausted[b] = true;
     while (!exhausted[b] && static_cast<long>(accepted[b].size()) < want[b]) {
       std::vector<std::vector<Candidate>> chunk_out(kChunks);
-      std::vector<long> chunk_winding(kChunks, 0);
       const uint64_t batch = next_batch[b]++;
       tbb::parallel_for(0, kChunks, [&](int c) {
         Rng rng = Rng::derived(s.seed, (static_cast<uint64_t>(b + 1) << 48) + batch * kChunks + c);
         auto acc = grid.getConstAccessor();
         const double lo = s.edges[b] + s.offset, hi = s.edges[b + 1] + s.offset;
         for (int k = 0; k < kChunk; ++k) {
-          const openvdb::Coord& cell = cells[b][rng.below(cells[b].size())];
-          const Eigen::Vector3f pf(static_cast<float>((cell.x() + rng.uniform(-0.5, 0.5)) * h),
-                                   static_cast<float>((cell.y() + rng.uniform(-0.5, 0.5)) * h),
-                                   static_cast<float>((cell.z() + rng.uniform(-0.5, 0.5)) * h));
+          const auto pick = static_cast<int64_t>(rng.below(static_cast<uint64_t>(cum[b].back())));
+          const Cell& cell =
+              cells[b][static_cast<size_t>(std::upper_bound(cum[b].begin(), cum[b].end(), pick) - cum[b].begin())];
+          const double side = cell.size;
+          const Eigen::Vector3f pf(static_cast<float>((cell.origin.x() - 0.5 + side * rng.uniform()) * h),
+                                   static_cast<float>((cell.origin.y() - 0.5 + side * rng.uniform()) * h),
+                                   static_cast<float>((cell.origin.z() - 0.5 + side * rng.uniform()) * h));
           const Vec3 p = pf.cast<double>();
-          bool used = false;
-          const double v = exact(p, acc, used);
-          chunk_winding[c] += used;
+          const double v = exact(p, acc, reach * 1.001 + 1e-9, cell.face);
+          if (!std::isfinite(v)) continue;
           const bool last = b == 3;
           if (v >= lo && (v < hi || (last && v <= hi))) chunk_out[c].push_back({pf, static_cast<float>(v)});
         }
       });
       tried[b] += static_cast<long>(kChunk) * kChunks;
       for (int c = 0; c < kChunks; ++c) {
-        winding_calls += chunk_winding[c];
         for (const Candidate& cand : chunk_out[c])
           if (static_cast<long>(accepted[b].size()) < want[b]) accepted[b].push_back(cand);
       }
@@ -150,8 +257,7 @@ MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSetti
       const Eigen::Vector3f pf(static_cast<float>(rng.uniform(-s.box, s.box)),
                                static_cast<float>(rng.uniform(-s.box, s.box)),
                                static_cast<float>(rng.uniform(-s.box, s.box)));
-      bool used = false;
-      uniform[static_cast<size_t>(i)] = {pf, static_cast<float>(exact(pf.cast<double>(), acc, used))};
+      uniform[static_cast<size_t>(i)] = {pf, static_cast<float>(exact(pf.cast<double>(), acc))};
     }
   });
 
@@ -169,7 +275,6 @@ MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSetti
   for (int b = 0; b < 4; ++b)
     for (const Candidate& c : accepted[b]) put(c);
   for (const Candidate& c : uniform) put(c);
-  (void)winding_calls;
   if (report) *report = rep;
   return out;
 }

@@ -20,6 +20,9 @@ struct SampleSettings {
   double box = 1.2;                ///< half-size of the uniform box (DISN's 1.2 x the unit sphere's box)
   uint64_t seed = 0;
   double winding_beta = 2.0;
+  /// How the sign of a sample is decided (Auto: pseudo-normals for closed one-part meshes, else winding numbers;
+  /// see resolve_sign_method in sdf/sparse_sdf.h).
+  SignMethod sign = SignMethod::Auto;
   long max_candidates_per_bin = 0;  ///< give up on a bin after this many tries (0 = 64 x its quota)
 };
 
@@ -31,15 +34,18 @@ struct SampleReport {
   /// Bins that the shape cannot fill (e.g. no inside deeper than 0.03 for a thin plate): their shortfall
   /// is redistributed to the other bins, nearest bin first, and reported here.
   long redistributed = 0;
+  SignMethod sign = SignMethod::None;  ///< the sign method used (Auto resolved)
 };
 
 /// N x 4 float32 rows (x, y, z, sdf) in the frame of `mesh` (the object frame in a prepared dataset): bins
-/// first (bin 0..3, in generation order), then the uniform share. `sdf` is the grid built from the same mesh
-/// (it proposes candidates, and gives the sign of points farther than 0.9 voxel from the surface, where no
-/// surface lies between the point and its nearest voxel). Closer points take the sign of their own winding
-/// number, so `mesh` should be oriented consistently (sdf/orientation.h) as it was for the grid. The stored
-/// sdf is the exact distance of the float32-rounded point. Deterministic for a seed whatever the thread
-/// count. Throws InvalidInput for bad settings or a band too narrow for the bins.
+/// first (bin 0..3, in generation order), then the uniform share. Candidates come from cells that can hold
+/// each bin (exact distances at cell centres, the grid's band values near the surface), so the grid's band may
+/// be narrower than the bins. `sdf` is the grid built from the same mesh: with winding-number signs it gives
+/// the sign of points farther than 0.9 voxel from the surface (no surface lies between the point and its
+/// nearest voxel); closer points take the sign of their own winding number. With pseudo-normals (closed
+/// meshes) every sample takes the sign of its closest feature. `mesh` should be oriented consistently
+/// (sdf/orientation.h) as it was for the grid. The stored sdf is the exact distance of the float32-rounded
+/// point. Deterministic for a seed whatever the thread count. Throws InvalidInput for bad settings.
 MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSettings& settings,
                        SampleReport* report = nullptr);
 

@@ -3,12 +3,14 @@
 #include "core/error.h"
 #include "sdf/distance.h"
 #include "sdf/orientation.h"
+#include "sdf/pseudonormal.h"
 #include "sdf/sparse_sdf_vdb.h"
 #include "sdf/winding.h"
 
 #include <openvdb/io/File.h>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/Morphology.h>
 #include <openvdb/tools/Prune.h>
 
 #include <tbb/blocked_range.h>
@@ -16,11 +18,13 @@
 
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <unistd.h>
 
 namespace sdfkit {
@@ -63,9 +67,9 @@ struct UnionFind {
 /// probing the winding number at a few members, falling back to every member when the probes disagree or
 /// are ambiguous (open meshes, where the w = 0.5 set is not tied to the surface).
 /// `position(i)` gives the item's world position, `inside_out` receives the decision per item.
-template <typename PosFn>
+template <typename PosFn, typename Oracle>
 long classify_components(UnionFind& uf, int32_t n, const std::vector<int32_t>& preferred_probe, const PosFn& position,
-                         const WindingNumber& wn, double threshold, std::vector<char>& inside) {
+                         const Oracle& wn, double threshold, std::vector<char>& inside) {
   long evaluations = 0;
   std::map<int32_t, std::vector<int32_t>> groups;  // root -> members in index order (deterministic)
   for (int32_t i = 0; i < n; ++i) groups[uf.find(i)].push_back(i);
@@ -123,6 +127,26 @@ void make_uuid_deterministic(std::string& bytes) {
 
 }  // namespace
 
+const char* sign_method_name(SignMethod m) {
+  switch (m) {
+    case SignMethod::WindingNumber: return "winding_number";
+    case SignMethod::None: return "none";
+    case SignMethod::PseudoNormal: return "pseudo_normal";
+    case SignMethod::Auto: return "auto";
+  }
+  return "auto";
+}
+
+SignMethod resolve_sign_method(const Mesh& mesh, SignMethod requested, double spacing) {
+  if (requested != SignMethod::Auto && requested != SignMethod::PseudoNormal) return requested;
+  if (!pseudo_normal_sign_applies(mesh)) return SignMethod::WindingNumber;
+  if (requested == SignMethod::PseudoNormal) return requested;  // explicit: no agreement test
+  const MeshDistance dist(mesh);
+  const PseudoNormals normals(mesh);
+  return pseudo_normal_agrees_with_winding(mesh, dist, normals, spacing) ? SignMethod::PseudoNormal
+                                                                         : SignMethod::WindingNumber;
+}
+
 SparseSdf sparse_sdf_from_grid(FloatGrid::Ptr grid) {
   require(grid != nullptr, "sparse SDF: null grid");
   require(grid->hasUniformVoxels(), "sparse SDF: the grid's voxels are not uniform");
@@ -146,61 +170,141 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
   require(!input.empty(), "sparse SDF: empty mesh");
   require(input.V.allFinite(), "sparse SDF: non-finite vertex coordinates");
   require(s.voxel_size > 0 && std::isfinite(s.voxel_size), "sparse SDF: voxel size must be positive");
-  require(s.band >= s.voxel_size && std::isfinite(s.band), "sparse SDF: band must be at least one voxel wide");
+  require(s.band == 0 || (s.band >= s.voxel_size && std::isfinite(s.band)),
+          "sparse SDF: band must be 0 (3 voxels) or at least one voxel wide");
   const Progress progress{progress_fn};
   SparseSdfStats st;
+  auto clock = std::chrono::steady_clock::now();
+  auto lap = [&clock](double& out) {
+    const auto now = std::chrono::steady_clock::now();
+    out += std::chrono::duration<double>(now - clock).count();
+    clock = now;
+  };
   Mesh mesh = input;
-  if (s.orient_faces && s.sign == SignMethod::WindingNumber) {
+  if (s.orient_faces && s.sign != SignMethod::None) {
     OrientationReport orep;
     mesh = orient_consistently(input, &orep);
     st.flipped_faces = orep.flipped_faces;
   }
+  const double h = s.voxel_size;
+  const SignMethod method = resolve_sign_method(mesh, s.sign, h);
+  st.sign = method;
+  lap(st.seconds_setup);
   progress(0.05);
 
-  const double h = s.voxel_size;
+  // Exact band, built per 8^3 leaf: every voxel closer than `width` to the surface has its closest triangle
+  // within `width`, so the triangle's bounding box grown by `width` contains the voxel. Triangles are binned to
+  // the leaves their grown boxes touch; each leaf then takes, per voxel, the minimum distance over its
+  // triangles (exact closest-point distances, order-independent: deterministic for any thread count).
+  const double width = s.band > 0 ? std::ceil(s.band / h) * h : 3.0 * h;
+  const auto background = static_cast<float>(width);
   const auto xform = openvdb::math::Transform::createLinearTransform(h);
-  std::vector<openvdb::Vec3s> points(static_cast<size_t>(mesh.V.rows()));
-  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
-    points[static_cast<size_t>(i)] = openvdb::Vec3s(static_cast<float>(mesh.V(i, 0) / h),
-                                                    static_cast<float>(mesh.V(i, 1) / h),
-                                                    static_cast<float>(mesh.V(i, 2) / h));
-  std::vector<openvdb::Vec3I> tris(static_cast<size_t>(mesh.F.rows()));
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    tris[static_cast<size_t>(f)] = openvdb::Vec3I(static_cast<uint32_t>(mesh.F(f, 0)),
-                                                  static_cast<uint32_t>(mesh.F(f, 1)),
-                                                  static_cast<uint32_t>(mesh.F(f, 2)));
-  const openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> adapter(points, tris);
-  const float band_voxels = static_cast<float>(std::ceil(s.band / h));
-  openvdb::util::NullInterrupter interrupter;
-  FloatGrid::Ptr grid = openvdb::tools::meshToVolume<FloatGrid>(interrupter, adapter, *xform, band_voxels, 0.0f,
-                                                                openvdb::tools::UNSIGNED_DISTANCE_FIELD);
+  FloatGrid::Ptr grid = FloatGrid::create(background);
+  grid->setTransform(xform);
   grid->setName("sdf");
   FloatTree& tree = grid->tree();
-  const auto background = static_cast<float>(band_voxels * h);
-  progress(0.4);
-
-  // OpenVDB widens its band by passing closest-triangle candidates between neighbouring voxels, which can miss
-  // the true closest triangle (errors up to ~0.6 voxel far from the surface). Its value is the distance to a
-  // real triangle, hence an upper bound: an exact BVH query pruned by it restores exact distances cheaply.
+  const MeshDistance exact(mesh);
   {
-    const MeshDistance exact(mesh);
-    std::vector<LeafT*> leaves;
-    leaves.reserve(tree.leafCount());
-    tree.getNodes(leaves);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 4), [&](const auto& range) {
-      for (size_t li = range.begin(); li != range.end(); ++li)
-        for (auto it = leaves[li]->beginValueOn(); it; ++it) {
-          const Coord c = it.getCoord();
-          const double bound = static_cast<double>(*it) * (1.0 + 1e-6) + 1e-9;
-          const ClosestPoint cp = exact.closest(Vec3(c.x() * h, c.y() * h, c.z() * h), bound);
-          if (cp.face >= 0) it.setValue(static_cast<float>(cp.distance));
+    constexpr int32_t D = LeafT::DIM;
+    const auto nf = static_cast<size_t>(mesh.F.rows());
+    struct Tri {
+      Vec3 a, b, c, n;  ///< corners, unit normal (zero when degenerate)
+      double offset;    ///< n . a
+      openvdb::Coord lo, hi;  ///< voxel index box of the grown bounding box
+    };
+    std::vector<Tri> tris(nf);
+    auto leaf_key = [](const Coord& c) {
+      // Leaf coordinates (voxel >> 3) in 21 bits each.
+      return (static_cast<uint64_t>((c.x() >> 3) + (1 << 20)) << 42) |
+             (static_cast<uint64_t>((c.y() >> 3) + (1 << 20)) << 21) | static_cast<uint64_t>((c.z() >> 3) + (1 << 20));
+    };
+    auto key_origin = [](uint64_t k) {
+      const auto part = [](uint64_t v) { return (static_cast<int32_t>(v & ((1u << 21) - 1)) - (1 << 20)) * 8; };
+      return Coord(part(k >> 42), part(k >> 21), part(k));
+    };
+    std::vector<std::vector<std::pair<uint64_t, int32_t>>> chunk_pairs((nf + 4095) / 4096);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunk_pairs.size()), [&](const auto& r) {
+      for (size_t ch = r.begin(); ch != r.end(); ++ch) {
+        auto& out = chunk_pairs[ch];
+        for (size_t f = ch * 4096; f < std::min(nf, (ch + 1) * 4096); ++f) {
+          const auto fi = static_cast<Eigen::Index>(f);
+          Tri& t = tris[f];
+          t.a = mesh.V.row(mesh.F(fi, 0));
+          t.b = mesh.V.row(mesh.F(fi, 1));
+          t.c = mesh.V.row(mesh.F(fi, 2));
+          const Vec3 n = (t.b - t.a).cross(t.c - t.a);
+          t.n = n.norm() > 0 ? Vec3(n.normalized()) : Vec3::Zero();
+          t.offset = t.n.dot(t.a);
+          const Vec3 lo = t.a.cwiseMin(t.b).cwiseMin(t.c), hi = t.a.cwiseMax(t.b).cwiseMax(t.c);
+          for (int k = 0; k < 3; ++k) {
+            t.lo[k] = static_cast<int32_t>(std::ceil((lo[k] - width) / h));
+            t.hi[k] = static_cast<int32_t>(std::floor((hi[k] + width) / h));
+          }
+          for (int32_t x = t.lo.x() & ~(D - 1); x <= t.hi.x(); x += D)
+            for (int32_t y = t.lo.y() & ~(D - 1); y <= t.hi.y(); y += D)
+              for (int32_t z = t.lo.z() & ~(D - 1); z <= t.hi.z(); z += D)
+                out.emplace_back(leaf_key(Coord(x, y, z)), static_cast<int32_t>(f));
         }
+      }
     });
+    std::vector<std::pair<uint64_t, int32_t>> pairs;
+    for (auto& c : chunk_pairs) pairs.insert(pairs.end(), c.begin(), c.end());
+    chunk_pairs.clear();
+    std::sort(pairs.begin(), pairs.end());
+    std::vector<size_t> starts;
+    for (size_t i = 0; i < pairs.size(); ++i)
+      if (i == 0 || pairs[i].first != pairs[i - 1].first) starts.push_back(i);
+    starts.push_back(pairs.size());
+    const size_t nleaves = starts.size() - 1;
+    std::vector<std::unique_ptr<LeafT>> built(nleaves);
+    const double width2 = width * width;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nleaves, 8), [&](const auto& r) {
+      std::array<double, LeafT::SIZE> best;
+      for (size_t li = r.begin(); li != r.end(); ++li) {
+        const Coord origin = key_origin(pairs[starts[li]].first);
+        best.fill(width2);
+        for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi) {
+          const Tri& t = tris[static_cast<size_t>(pairs[pi].second)];
+          const Coord lo = Coord::maxComponent(t.lo, origin);
+          const Coord hi = Coord::minComponent(t.hi, origin.offsetBy(D - 1));
+          for (int32_t x = lo.x(); x <= hi.x(); ++x)
+            for (int32_t y = lo.y(); y <= hi.y(); ++y)
+              for (int32_t z = lo.z(); z <= hi.z(); ++z) {
+                const size_t i = static_cast<size_t>(((x - origin.x()) * D + (y - origin.y())) * D + (z - origin.z()));
+                const Vec3 p(x * h, y * h, z * h);
+                const double plane = t.n.dot(p) - t.offset;  // a lower bound of the distance to the triangle
+                if (plane * plane >= best[i]) continue;
+                const double d2 = (closest_point_on_triangle(p, t.a, t.b, t.c) - p).squaredNorm();
+                if (d2 < best[i]) best[i] = d2;
+              }
+        }
+        bool any = false;
+        for (double b : best) any = any || b < width2;
+        if (!any) continue;
+        auto leaf = std::make_unique<LeafT>(origin, background, false);
+        for (size_t i = 0; i < LeafT::SIZE; ++i)
+          if (best[i] < width2) leaf->setValueOn(static_cast<openvdb::Index>(i), static_cast<float>(std::sqrt(best[i])));
+        built[li] = std::move(leaf);
+      }
+    });
+    lap(st.seconds_topology);
+    for (auto& leaf : built)
+      if (leaf) tree.addLeaf(leaf.release());
   }
+  lap(st.seconds_exact);
   progress(0.5);
 
-  if (s.sign == SignMethod::WindingNumber) {
-    const WindingNumber wn(mesh, s.winding_beta);
+  if (method != SignMethod::None) {
+    // Inside measure: the winding number, or 1/0 from the pseudo-normal at the closest feature (closed meshes).
+    std::optional<WindingNumber> winding;
+    std::optional<PseudoNormals> normals;
+    if (method == SignMethod::PseudoNormal) normals.emplace(mesh);
+    else winding.emplace(mesh, s.winding_beta);
+    const auto wn = [&](const Vec3& p) -> double {
+      if (winding) return (*winding)(p);
+      const ClosestPoint cp = exact.closest(p);
+      return cp.face >= 0 && normals->inside(p, cp) ? 1.0 : 0.0;
+    };
     const double threshold = 0.5;
     std::vector<LeafT*> leaves;
     leaves.reserve(tree.leafCount());
@@ -301,6 +405,7 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
     openvdb::tools::pruneLevelSet(tree);
   }
   grid->setGridClass(openvdb::GRID_LEVEL_SET);
+  lap(st.seconds_sign);
   progress(1.0);
   if (stats) *stats = st;
   return sparse_sdf_from_grid(grid);

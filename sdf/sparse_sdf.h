@@ -15,14 +15,26 @@ namespace sdfkit {
 enum class SignMethod {
   WindingNumber,  ///< inside iff generalized winding number > 0.5: open, soup, self-intersecting meshes
   None,           ///< unsigned distances (no inside)
+  PseudoNormal,   ///< angle-weighted pseudo-normal at the closest feature: closed, oriented, one-part meshes
+  Auto,           ///< PseudoNormal when it applies (see resolve_sign_method), else WindingNumber
 };
+
+/// What `requested` means for `mesh`: Auto becomes PseudoNormal when the mesh is closed, consistently
+/// oriented and one part (sdf/pseudonormal.h) and the pseudo-normal sign agrees with the winding number at 256
+/// test points 0.5-4 `spacing` off the surface (a guard against self-intersections); else WindingNumber.
+/// PseudoNormal (explicit, no agreement test) on a mesh that is not closed, oriented and one part falls back to
+/// WindingNumber too. Others are returned as is.
+SignMethod resolve_sign_method(const Mesh& mesh, SignMethod requested, double spacing);
+/// "winding_number", "pseudo_normal", "none" or "auto".
+const char* sign_method_name(SignMethod m);
 
 struct SparseSdfSettings {
   double voxel_size = 2.4 / 256;  ///< DISN: 256 cells over [-1.2, 1.2]; voxel centres at integer multiples
-  /// Half-width of the stored band in object units. DISN supervises |sdf - 0.003| <= 0.1; the default adds
-  /// the 0.003 offset and ~1.8 voxels so that continuous samples near 0.1 are surrounded by band voxels.
-  double band = 0.12;
-  SignMethod sign = SignMethod::WindingNumber;
+  /// Half-width of the stored band in object units; 0 = 3 voxels (OpenVDB's level-set half width). The DISN
+  /// samples (sdf/samples.h) are computed exactly from the mesh and need no wide band; use 0.12 (0.1 + the
+  /// 0.003 offset + ~1.8 voxels) when the grid itself must hold every |sdf - 0.003| <= 0.1.
+  double band = 0.0;
+  SignMethod sign = SignMethod::Auto;
   double winding_beta = 2.0;       ///< accuracy of the hierarchical winding numbers
   /// Make face orientation consistent per connected part first (sdf/orientation.h) so that flipped faces and
   /// inside-out parts do not corrupt the winding number.
@@ -35,15 +47,18 @@ struct SparseSdfStats {
   long band_voxels = 0;          ///< voxels whose sign was decided
   long inside_tiles = 0;         ///< 8^3 tiles marked inside beyond the band
   long flipped_faces = 0;        ///< faces re-oriented before signing
+  SignMethod sign = SignMethod::None;  ///< the method actually used (Auto resolved)
+  /// Wall seconds per stage: orient + sign-method choice, exact band (per leaf), leaf insertion, signs.
+  double seconds_setup = 0, seconds_topology = 0, seconds_exact = 0, seconds_sign = 0;
 };
 
 class SparseSdf {
  public:
   SparseSdf();  ///< an empty field (every value = +background)
 
-  /// Build from a mesh (any frame; the grid uses the mesh's coordinates). Exact unsigned distances in the
-  /// band come from OpenVDB's mesh-to-volume (closest triangle per voxel); signs from winding numbers,
-  /// evaluated only where the sign can change (see docs/prep.md). Throws InvalidInput for bad settings or
+  /// Build from a mesh (any frame; the grid uses the mesh's coordinates). Band topology from OpenVDB's
+  /// mesh-to-volume, exact unsigned distances from a BVH query per band voxel; signs from pseudo-normals or
+  /// winding numbers, evaluated only where the sign can change (see docs/prep.md). Throws InvalidInput for bad settings or
   /// an empty mesh; `progress` may cancel (throws sdfkit::Error "cancelled").
   static SparseSdf from_mesh(const Mesh& mesh, const SparseSdfSettings& settings = {}, SparseSdfStats* stats = nullptr,
                              const ProgressFn& progress = {});

@@ -67,6 +67,7 @@ TEST_CASE("sparse SDF: inside tiles beyond the band are negative, outside positi
   const Vec3 c(0, 0, 0);
   SparseSdfSettings s;
   s.voxel_size = 0.015;
+  s.band = 0.12;  // the whole |d| <= 0.08 shell tested below lies in the band
   const SparseSdf sdf = SparseSdf::from_mesh(make_icosphere(c, 0.9, 4), s);
   CHECK(sdf.value(Vec3(0, 0, 0)) == doctest::Approx(-sdf.background()));
   CHECK(sdf.value(Vec3(0.3, -0.2, 0.1)) == doctest::Approx(-sdf.background()));
@@ -127,4 +128,44 @@ TEST_CASE("sparse SDF: bad settings are rejected") {
   s.band = 0.001;
   CHECK_THROWS_AS(SparseSdf::from_mesh(m, s), InvalidInput);
   CHECK_THROWS_AS(SparseSdf::from_mesh(Mesh{}, {}), InvalidInput);
+}
+
+TEST_CASE("sparse SDF: the default band is 3 voxels: every lattice point closer than that is active and exact") {
+  const Mesh m = make_torus(Vec3::Zero(), 0.55, 0.2, 48, 24);
+  const MeshDistance dist(m);
+  for (double band : {0.0, 0.1}) {
+    CAPTURE(band);
+    SparseSdfSettings s;
+    s.voxel_size = 0.025;
+    s.band = band;
+    const SparseSdf sdf = SparseSdf::from_mesh(m, s);
+    const double h = s.voxel_size;
+    const double width = band > 0 ? std::ceil(band / h) * h : 3 * h;
+    CHECK(sdf.background() == doctest::Approx(width));
+    const auto grid = vdb_grid(sdf);
+    auto acc = grid->getConstAccessor();
+    long inside_band = 0, missing = 0, inexact = 0, active_far = 0, bad_sign = 0;
+    for (int i = -34; i <= 34; ++i)
+      for (int j = -34; j <= 34; ++j)
+        for (int k = -14; k <= 14; ++k) {
+          const Vec3 p(i * h, j * h, k * h);
+          const double d = dist(p);
+          const openvdb::Coord c(i, j, k);
+          const bool on = acc.isValueOn(c);
+          if (d < width - 0.05 * h) {
+            ++inside_band;
+            if (!on) ++missing;
+          }
+          if (on && std::abs(std::abs(acc.getValue(c)) - d) > 1e-6) ++inexact;
+          if (on && d > width + h) ++active_far;
+          // Sign everywhere (band, inactive voxels of leaves, tiles, background): the torus' closed form.
+          const double ref = torus_sdf(p, Vec3::Zero(), 0.55, 0.2);
+          if (std::abs(ref) > 0.01 && (acc.getValue(c) < 0) != (ref < 0)) ++bad_sign;
+        }
+    CHECK(inside_band > 10000);
+    CHECK(missing == 0);
+    CHECK(inexact == 0);
+    CHECK(active_far == 0);
+    CHECK(bad_sign == 0);
+  }
 }
