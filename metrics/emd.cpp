@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <tuple>
 
 namespace sdfkit::metrics {
@@ -67,6 +68,28 @@ std::vector<int> morton_order(const Points& p, const Box3& box) {
 }
 
 using EdgeList = std::vector<std::pair<int, double>>;
+
+// The distinct locations of a point set and the rows at each (in index order).
+struct Sites {
+  Points where;               // one row per site
+  std::vector<int> start;     // members of site s: rows[start[s] .. start[s + 1])
+  std::vector<int> rows;
+  explicit Sites(const Points& p) {
+    const auto n = static_cast<int>(p.rows());
+    rows.resize(static_cast<size_t>(n));
+    std::iota(rows.begin(), rows.end(), 0);
+    auto key = [&](int i) { return std::make_tuple(p(i, 0), p(i, 1), p(i, 2)); };
+    std::sort(rows.begin(), rows.end(), [&](int x, int y) { return std::make_pair(key(x), x) < std::make_pair(key(y), y); });
+    for (int k = 0; k < n; ++k)
+      if (k == 0 || key(rows[k]) != key(rows[k - 1])) start.push_back(k);
+    start.push_back(n);
+    where.resize(count(), 3);
+    for (int s = 0; s < count(); ++s) where.row(s) = p.row(rows[start[s]]);
+  }
+  [[nodiscard]] int count() const { return static_cast<int>(start.size()) - 1; }
+  [[nodiscard]] int size(int s) const { return start[s + 1] - start[s]; }
+  [[nodiscard]] int member(int s, int r) const { return rows[start[s] + r]; }
+};
 
 // The dense check of the certificate: for every row i, the slack c_i,s(i) + p_s(i) - min over ALL j of
 // (c_ij + p_j), and the pairs with c_ij + p_j < c_i,s(i) + p_s(i) - threshold (the most attractive
@@ -198,27 +221,52 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
   // A row may keep a slack up to tol_row: the certificate then bounds total - optimum by n tol_row.
   const double tol_row = settings.tolerance * diag / n;
 
-  // 1. Candidate graph: a_i's k nearest in b, b_j's k nearest in a (as edges (i, j)), and the pairs of equal rank
-  //    along a Morton curve through both sets: a permutation, so the graph always holds a perfect matching, and
-  //    one whose edges cross between regions where the two sets have unequal mass (which k-NN edges do not).
-  //    Queried in parallel into per-point slots, assembled sequentially: the graph does not depend on the
-  //    thread count.
+  // 1. Candidate graph, between SITES (distinct locations; vertex sampling with replacement repeats points many
+  //    times, and the k nearest points would then be copies of one or two locations): every site's k nearest
+  //    sites in the other set, both directions. The r-th copy of a site with m copies is joined to copies
+  //    r c, ..., r c + c - 1 (mod w) of a neighbouring site with w copies, c = min(4, ceil(w / m)), so the copies
+  //    on both sides are spread over each other. Without repeated points this is the plain k-NN graph. Plus the
+  //    pairs of equal rank along a Morton curve through both sets: a permutation, so the graph always holds a
+  //    perfect matching, and one whose edges cross between regions where the two sets have unequal mass (which
+  //    k-NN edges do not). Queried in parallel into per-site slots, assembled sequentially: the graph does not
+  //    depend on the thread count.
   std::vector<EdgeList> rows(n);
   double longest = 0;
   {
-    const KdTree tb(b, "EMD: second point set"), ta(a, "EMD: first point set");
-    std::vector<EdgeList> fwd(n), bwd(n);
-    tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& r) {
+    const Sites sa(a), sb(b);
+    const KdTree tb(sb.where, "EMD: second point set"), ta(sa.where, "EMD: first point set");
+    const int na = sa.count(), nb = sb.count();
+    std::vector<EdgeList> fwd(na), bwd(nb);
+    tbb::parallel_for(tbb::blocked_range<int>(0, std::max(na, nb), 64), [&](const tbb::blocked_range<int>& r) {
       for (int i = r.begin(); i != r.end(); ++i) {
-        fwd[i] = tb.knn(a.row(i).transpose(), k);
-        bwd[i] = ta.knn(b.row(i).transpose(), k);
+        if (i < na) fwd[i] = tb.knn(sa.where.row(i).transpose(), std::min(k, nb));
+        if (i < nb) bwd[i] = ta.knn(sb.where.row(i).transpose(), std::min(k, na));
       }
     });
+    // copies of `from` (m of them) against copies of `to` (w): the r-th copy gets c consecutive copies of `to`
+    auto spread = [](int m, int w, int r, int q) {
+      const int c = std::min({4, w, (w + m - 1) / m});
+      return q < c ? static_cast<int>((static_cast<long>(r) * c + q) % w) : -1;
+    };
+    for (int s = 0; s < na; ++s)
+      for (const auto& [t, d2] : fwd[s]) {
+        const int m = sa.size(s), w = sb.size(t);
+        for (int r = 0; r < m; ++r)
+          for (int q = 0, x; (x = spread(m, w, r, q)) >= 0; ++q) {
+            const int i = sa.member(s, r), j = sb.member(t, x);
+            rows[i].emplace_back(j, distance(a, i, b, j));
+          }
+      }
+    for (int t = 0; t < nb; ++t)
+      for (const auto& [s, d2] : bwd[t]) {
+        const int w = sb.size(t), m = sa.size(s);
+        for (int r = 0; r < w; ++r)
+          for (int q = 0, x; (x = spread(w, m, r, q)) >= 0; ++q) {
+            const int j = sb.member(t, r), i = sa.member(s, x);
+            rows[i].emplace_back(j, distance(a, i, b, j));
+          }
+      }
     const std::vector<int> oa = morton_order(a, box), ob = morton_order(b, box);
-    for (int i = 0; i < n; ++i)
-      for (const auto& [j, d2] : fwd[i]) rows[i].emplace_back(j, distance(a, i, b, j));
-    for (int j = 0; j < n; ++j)
-      for (const auto& [i, d2] : bwd[j]) rows[i].emplace_back(j, distance(a, i, b, j));
     for (int r = 0; r < n; ++r) rows[oa[r]].emplace_back(ob[r], distance(a, oa[r], b, ob[r]));
     for (auto& e : rows) {
       std::sort(e.begin(), e.end());
