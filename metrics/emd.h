@@ -2,9 +2,10 @@
 // Euclidean distances of matched points.
 //
 // exact (default): a minimum-cost perfect matching, optimal to within a certified bound.
-//  1. Candidate graph: each point's k nearest neighbours in the other set (both directions) plus the pairs of
-//     equal rank along a Morton curve through both sets (a permutation: the graph always holds a perfect
-//     matching, with edges that cross between regions of unequal mass).
+//  1. Candidate graph: each point's k nearest neighbours in the other set (both directions; between distinct
+//     locations, with the copies of repeated points spread over each other) plus the pairs of equal rank along a
+//     Morton curve through both sets (a permutation: the graph always holds a perfect matching, with edges that
+//     cross between regions of unequal mass).
 //  2. Coarse prices: Bertsekas' auction with epsilon scaling on the graph down to eps = 1e-4 x diagonal, one
 //     dense check at that eps adds the pairs the graph missed, and the auction settles them.
 //  3. Exact successive shortest augmenting paths (Dijkstra on reduced costs, as in Jonker-Volgenant) on the
