@@ -34,6 +34,7 @@ struct ExactSigned {
   const PseudoNormals* normals;
   const openvdb::FloatGrid& grid;
   double h;
+  openvdb::Coord offset;  ///< grid_index_offset
 
   /// NaN when the point is farther than `bound` from the mesh.
   template <typename Accessor>
@@ -43,8 +44,9 @@ struct ExactSigned {
     const double u = cp.distance;
     if (normals) return normals->inside(p, cp) ? -u : u;
     if (u > 0.9 * h) {
-      const openvdb::Coord c(static_cast<int>(std::lround(p.x() / h)), static_cast<int>(std::lround(p.y() / h)),
-                             static_cast<int>(std::lround(p.z() / h)));
+      const openvdb::Coord c(static_cast<int>(std::lround(p.x() / h)) + offset.x(),
+                             static_cast<int>(std::lround(p.y() / h)) + offset.y(),
+                             static_cast<int>(std::lround(p.z() / h)) + offset.z());
       const float v = acc.getValue(c);
       if (v != 0.f) return v < 0 ? -u : u;
     }
@@ -80,13 +82,19 @@ std::array<std::vector<Cell>, 4> candidate_cells(const Mesh& mesh, const MeshDis
   const double slack = 1e-3 * h;  // float rounding of the grid values
   Box3 box;
   for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) box.extend(mesh.V.row(i).transpose());
-  const auto to_index_lo = [&](double x) { return static_cast<int32_t>(std::floor((x - reach) / h)) - 1; };
-  const auto to_index_hi = [&](double x) { return static_cast<int32_t>(std::ceil((x + reach) / h)) + 1; };
+  const openvdb::Coord off = grid_index_offset(grid);  // index i sits at (i - off) * h
+  const Vec3 offv(off.x(), off.y(), off.z());
+  const auto to_index_lo = [&](double x, int a) {
+    return static_cast<int32_t>(std::floor((x - reach) / h)) - 1 + off[a];
+  };
+  const auto to_index_hi = [&](double x, int a) {
+    return static_cast<int32_t>(std::ceil((x + reach) / h)) + 1 + off[a];
+  };
   auto floor_div = [](int32_t a, int32_t d) { return a >= 0 ? a / d : -((-a + d - 1) / d); };
   openvdb::Coord rlo, rhi;
   for (int a = 0; a < 3; ++a) {
-    rlo[a] = floor_div(to_index_lo(box.lo[a]), kRoot);
-    rhi[a] = floor_div(to_index_hi(box.hi[a]), kRoot);
+    rlo[a] = floor_div(to_index_lo(box.lo[a], a), kRoot);
+    rhi[a] = floor_div(to_index_hi(box.hi[a], a), kRoot);
   }
   std::vector<openvdb::Coord> roots;
   for (int32_t x = rlo.x(); x <= rhi.x(); ++x)
@@ -103,7 +111,7 @@ std::array<std::vector<Cell>, 4> candidate_cells(const Mesh& mesh, const MeshDis
     };
     std::function<void(std::array<std::vector<Cell>, 4>&, const openvdb::Coord&, int32_t, int32_t)> visit =
         [&](std::array<std::vector<Cell>, 4>& out, const openvdb::Coord& o, int32_t size, int32_t hint) {
-          const Vec3 centre = (Vec3(o.x(), o.y(), o.z()) + Vec3::Constant(0.5 * (size - 1))) * h;
+          const Vec3 centre = (Vec3(o.x(), o.y(), o.z()) - offv + Vec3::Constant(0.5 * (size - 1))) * h;
           const double r = 0.8661 * size * h;
           const ClosestPoint cp = dist.closest(centre, reach + r, hint);
           if (cp.face < 0) return;  // the whole block is farther than every bin
@@ -170,7 +178,8 @@ MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSetti
   std::optional<PseudoNormals> normals;
   if (method == SignMethod::PseudoNormal) normals.emplace(mesh);
   else wn.emplace(mesh, s.winding_beta);
-  const ExactSigned exact{dist, wn ? &*wn : nullptr, normals ? &*normals : nullptr, grid, h};
+  const ExactSigned exact{dist, wn ? &*wn : nullptr, normals ? &*normals : nullptr, grid, h, grid_index_offset(grid)};
+  const openvdb::Coord off = exact.offset;
 
   SampleReport rep;
   rep.sign = method;
@@ -209,9 +218,10 @@ MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSetti
           const Cell& cell =
               cells[b][static_cast<size_t>(std::upper_bound(cum[b].begin(), cum[b].end(), pick) - cum[b].begin())];
           const double side = cell.size;
-          const Eigen::Vector3f pf(static_cast<float>((cell.origin.x() - 0.5 + side * rng.uniform()) * h),
-                                   static_cast<float>((cell.origin.y() - 0.5 + side * rng.uniform()) * h),
-                                   static_cast<float>((cell.origin.z() - 0.5 + side * rng.uniform()) * h));
+          const Eigen::Vector3f pf(
+              static_cast<float>((cell.origin.x() - off.x() - 0.5 + side * rng.uniform()) * h),
+              static_cast<float>((cell.origin.y() - off.y() - 0.5 + side * rng.uniform()) * h),
+              static_cast<float>((cell.origin.z() - off.z() - 0.5 + side * rng.uniform()) * h));
           const Vec3 p = pf.cast<double>();
           const double v = exact(p, acc, reach * 1.001 + 1e-9, cell.face);
           if (!std::isfinite(v)) continue;

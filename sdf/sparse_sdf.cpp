@@ -147,6 +147,13 @@ SignMethod resolve_sign_method(const Mesh& mesh, SignMethod requested, double sp
                                                                          : SignMethod::WindingNumber;
 }
 
+openvdb::Coord grid_index_offset(const FloatGrid& grid) {
+  const double h = grid.voxelSize()[0];
+  const openvdb::Vec3d t = grid.transform().indexToWorld(openvdb::Vec3d(0, 0, 0));
+  return Coord(static_cast<int32_t>(std::lround(-t.x() / h)), static_cast<int32_t>(std::lround(-t.y() / h)),
+               static_cast<int32_t>(std::lround(-t.z() / h)));
+}
+
 SparseSdf sparse_sdf_from_grid(FloatGrid::Ptr grid) {
   require(grid != nullptr, "sparse SDF: null grid");
   require(grid->hasUniformVoxels(), "sparse SDF: the grid's voxels are not uniform");
@@ -199,6 +206,8 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
   const double width = s.band > 0 ? std::ceil(s.band / h) * h : 3.0 * h;
   const auto background = static_cast<float>(width);
   const auto xform = openvdb::math::Transform::createLinearTransform(h);
+  constexpr int32_t O = kGridIndexOffset;  // index i sits at (i - O) * h
+  xform->postTranslate(openvdb::Vec3d(-O * h, -O * h, -O * h));
   FloatGrid::Ptr grid = FloatGrid::create(background);
   grid->setTransform(xform);
   grid->setName("sdf");
@@ -237,8 +246,8 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
           t.offset = t.n.dot(t.a);
           const Vec3 lo = t.a.cwiseMin(t.b).cwiseMin(t.c), hi = t.a.cwiseMax(t.b).cwiseMax(t.c);
           for (int k = 0; k < 3; ++k) {
-            t.lo[k] = static_cast<int32_t>(std::ceil((lo[k] - width) / h));
-            t.hi[k] = static_cast<int32_t>(std::floor((hi[k] + width) / h));
+            t.lo[k] = static_cast<int32_t>(std::ceil((lo[k] - width) / h)) + O;
+            t.hi[k] = static_cast<int32_t>(std::floor((hi[k] + width) / h)) + O;
           }
           for (int32_t x = t.lo.x() & ~(D - 1); x <= t.hi.x(); x += D)
             for (int32_t y = t.lo.y() & ~(D - 1); y <= t.hi.y(); y += D)
@@ -263,6 +272,27 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
       for (size_t li = r.begin(); li != r.end(); ++li) {
         const Coord origin = key_origin(pairs[starts[li]].first);
         best.fill(width2);
+        // Wide bands (or large triangles) make the per-triangle scan cost more than one bounded BVH query per
+        // voxel (~50 triangle tests); then query the BVH instead, each query started from the previous face.
+        long scan_cost = 0;
+        for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi) {
+          const Tri& t = tris[static_cast<size_t>(pairs[pi].second)];
+          const Coord lo = Coord::maxComponent(t.lo, origin);
+          const Coord hi = Coord::minComponent(t.hi, origin.offsetBy(D - 1));
+          scan_cost += static_cast<long>(std::max(0, hi.x() - lo.x() + 1)) * std::max(0, hi.y() - lo.y() + 1) *
+                       std::max(0, hi.z() - lo.z() + 1);
+        }
+        if (scan_cost > 48L * static_cast<long>(LeafT::SIZE)) {
+          int32_t hint = -1;
+          for (size_t i = 0; i < LeafT::SIZE; ++i) {
+            const Coord c = origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
+            const ClosestPoint cp = exact.closest(Vec3((c.x() - O) * h, (c.y() - O) * h, (c.z() - O) * h), width, hint);
+            if (cp.face >= 0) {
+              best[i] = cp.distance * cp.distance;
+              hint = cp.face;
+            }
+          }
+        } else
         for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi) {
           const Tri& t = tris[static_cast<size_t>(pairs[pi].second)];
           const Coord lo = Coord::maxComponent(t.lo, origin);
@@ -271,7 +301,7 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
             for (int32_t y = lo.y(); y <= hi.y(); ++y)
               for (int32_t z = lo.z(); z <= hi.z(); ++z) {
                 const size_t i = static_cast<size_t>(((x - origin.x()) * D + (y - origin.y())) * D + (z - origin.z()));
-                const Vec3 p(x * h, y * h, z * h);
+                const Vec3 p((x - O) * h, (y - O) * h, (z - O) * h);
                 const double plane = t.n.dot(p) - t.offset;  // a lower bound of the distance to the triangle
                 if (plane * plane >= best[i]) continue;
                 const double d2 = (closest_point_on_triangle(p, t.a, t.b, t.c) - p).squaredNorm();
@@ -338,7 +368,7 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
         const Coord origin = leaf.origin();
         auto position = [&](int32_t i) {
           const Coord c = origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
-          return Vec3(c.x() * h, c.y() * h, c.z() * h);
+          return Vec3((c.x() - O) * h, (c.y() - O) * h, (c.z() - O) * h);
         };
         evaluations += classify_components(uf, static_cast<int32_t>(LeafT::SIZE), best, position, wn, threshold,
                                            inside);
@@ -388,8 +418,8 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
       auto block_center = [&](int32_t i) {
         const int32_t b = empty_blocks[i];
         const int32_t bz = b % nz, by = (b / nz) % ny, bx = b / (nz * ny);
-        return Vec3((lo.x() + bx * D + 0.5 * (D - 1)) * h, (lo.y() + by * D + 0.5 * (D - 1)) * h,
-                    (lo.z() + bz * D + 0.5 * (D - 1)) * h);
+        return Vec3((lo.x() - O + bx * D + 0.5 * (D - 1)) * h, (lo.y() - O + by * D + 0.5 * (D - 1)) * h,
+                    (lo.z() - O + bz * D + 0.5 * (D - 1)) * h);
       };
       std::vector<char> inside(static_cast<size_t>(n), 0);
       evaluations += classify_components(uf, n, first, block_center, wn, threshold, inside);
@@ -431,7 +461,9 @@ Eigen::VectorXd SparseSdf::values(const Points& P) const {
   return out;
 }
 
-double SparseSdf::voxel(int i, int j, int k) const { return impl_->grid->tree().getValue(Coord(i, j, k)); }
+double SparseSdf::voxel(int i, int j, int k) const {
+  return impl_->grid->tree().getValue(Coord(i, j, k) + grid_index_offset(*impl_->grid));
+}
 double SparseSdf::voxel_size() const { return impl_->grid->voxelSize()[0]; }
 double SparseSdf::background() const { return impl_->grid->background(); }
 long SparseSdf::active_voxel_count() const { return static_cast<long>(impl_->grid->activeVoxelCount()); }
@@ -441,8 +473,9 @@ Box3 SparseSdf::active_index_bounds() const {
   Box3 b;
   if (impl_->grid->activeVoxelCount() == 0) return b;
   const openvdb::CoordBBox bb = impl_->grid->evalActiveVoxelBoundingBox();
-  b.lo = Vec3(bb.min().x(), bb.min().y(), bb.min().z());
-  b.hi = Vec3(bb.max().x(), bb.max().y(), bb.max().z());
+  const Coord o = grid_index_offset(*impl_->grid);
+  b.lo = Vec3(bb.min().x() - o.x(), bb.min().y() - o.y(), bb.min().z() - o.z());
+  b.hi = Vec3(bb.max().x() - o.x(), bb.max().y() - o.y(), bb.max().z() - o.z());
   return b;
 }
 
