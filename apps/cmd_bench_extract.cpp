@@ -3,6 +3,7 @@
 // an analytic chair (union of box SDFs: seat, four thin legs, a back of two posts, a top rail and slats), at
 // several resolutions. Reports evaluations, median wall times, whether the meshes are identical, the Chamfer
 // distance between them and their distance to the analytic surface. Results: docs/benchmarks/extract.md.
+#include "apps/bench_util.h"
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
@@ -27,15 +28,10 @@
 namespace sdfkit::app {
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using bench::Clock;
+using bench::median;
+using bench::seconds_since;
 
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 struct BoxPart {
   Vec3 lo, hi;

@@ -1,5 +1,6 @@
 // `sdfkit bench nets`: forward/backward throughput of the conv and point-MLP layers as a fraction of the
 // machine's single-core float32 GEMM peak, measured in the same run (Eigen GEMM of large square matrices).
+#include "apps/bench_util.h"
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
@@ -18,11 +19,7 @@ namespace {
 
 // CPU time of the calling thread: the machine is shared, so wall time would measure the other processes too.
 // Everything runs on this thread (TBB limited to 1 thread below).
-double thread_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
+const auto thread_seconds = bench::thread_cpu_seconds;
 
 template <typename F>
 double median_seconds(int reps, F&& f) {
@@ -33,8 +30,7 @@ double median_seconds(int reps, F&& f) {
     f();
     t.push_back(thread_seconds() - t0);
   }
-  std::sort(t.begin(), t.end());
-  return t[t.size() / 2];
+  return bench::median(t);
 }
 
 void fill(Tensor& t, uint64_t seed) {

@@ -1,12 +1,14 @@
 // `sdfkit bench recon`: seconds per image against reconstruction error for the adaptive and the dense extraction
 // at several effective resolutions (65^3, 129^3, 257^3), on prepared test shapes with their GT meshes.
+#include "apps/bench_util.h"
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/mesh_io.h"
 #include "metrics/protocols.h"
 #include "nets/dataset.h"
-#include "nets/recon.h"
+#include "recon/recon.h"
+#include "nets/plot.h"
 #include "nets/sdf_train.h"
 
 #include <algorithm>
@@ -19,18 +21,9 @@
 namespace sdfkit::app {
 namespace {
 
-double median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-double mean(const std::vector<double>& v) {
-  if (v.empty()) return std::nan("");
-  double s = 0;
-  for (double x : v) s += x;
-  return s / static_cast<double>(v.size());
-}
+using bench::mean;
+using bench::median;
+
 
 std::function<int()> setup_bench_recon(CLI::App& app) {
   struct Opts {

@@ -1,6 +1,7 @@
 // `sdfkit bench render`: time per view of the rasteriser for a ~50k-triangle mesh at 137^2 and 512^2, with 1 and
 // 2 threads and several supersampling factors, plus a full 24-view set with files. Medians of --reps runs;
 // ratios against s = 1 at 137^2 on one thread, measured in the same run. Results: docs/benchmarks/render.md.
+#include "apps/bench_util.h"
 #include "apps/command.h"
 #include "camera/views.h"
 #include "core/error.h"
@@ -20,17 +21,10 @@
 namespace sdfkit::app {
 namespace {
 
-double cpu_seconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
+using bench::median;
+const auto cpu_seconds = bench::process_cpu_seconds;
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+
 
 struct Timing {
   double wall = 0, cpu = 0;  // medians, seconds per view

@@ -1,6 +1,7 @@
 // `sdfkit bench synth`: time to generate the procedural benchmark (in memory, per category) and to write it
 // (generate + binary PLY + lists) with 1 and all threads; triangle counts and bytes. Medians of --reps runs, ratios
 // against in-memory generation on one thread measured in the same run. Results: docs/benchmarks/synth.md.
+#include "apps/bench_util.h"
 #include "apps/command.h"
 #include "core/error.h"
 #include "synth/benchmark.h"
@@ -19,19 +20,12 @@
 namespace sdfkit::app {
 namespace {
 
+using bench::median;
+const auto cpu_seconds = bench::process_cpu_seconds;
+
 namespace fs = std::filesystem;
 
-double cpu_seconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
-}
 
 std::function<int()> setup_bench_synth(CLI::App& app) {
   struct Opts {

@@ -5,7 +5,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/mesh_io.h"
-#include "nets/recon.h"
+#include "recon/recon.h"
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>

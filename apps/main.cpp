@@ -1,6 +1,7 @@
 // `sdfkit`: parse the sub-command, run it, turn every error into one line and the contract's exit code.
 #include "apps/command.h"
 #include "core/error.h"
+#include "nets/denormals.h"
 
 #include <tbb/global_control.h>
 
@@ -69,6 +70,8 @@ void ProgressBar::finish() {
 
 int main(int argc, char** argv) {
   using namespace sdfkit::app;
+  // Before any thread exists, so that TBB's workers inherit it too (nets/denormals.h says why).
+  sdfkit::flush_denormals_on_this_thread();
   auto& commands = registry();
   std::sort(commands.begin(), commands.end(), [](const Command& a, const Command& b) { return a.name < b.name; });
 

@@ -1,5 +1,7 @@
 #include "nets/layer.h"
 
+#include "nets/denormals.h"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -84,19 +86,27 @@ std::vector<std::pair<int64_t, int64_t>> fixed_chunks(int64_t n, int64_t min_per
 
 void parallel_chunks(const std::vector<std::pair<int64_t, int64_t>>& chunks,
                      const std::function<void(size_t, int64_t, int64_t)>& fn) {
+  flush_denormals_on_this_thread();
   if (chunks.size() == 1) {
     fn(0, chunks[0].first, chunks[0].second);
     return;
   }
-  tbb::parallel_for(size_t(0), chunks.size(), [&](size_t c) { fn(c, chunks[c].first, chunks[c].second); });
+  tbb::parallel_for(size_t(0), chunks.size(), [&](size_t c) {
+    flush_denormals_on_this_thread();
+    fn(c, chunks[c].first, chunks[c].second);
+  });
 }
 
 void parallel_items(int64_t n, const std::function<void(int64_t)>& fn) {
+  flush_denormals_on_this_thread();
   if (n == 1) {
     fn(0);
     return;
   }
-  tbb::parallel_for(int64_t(0), n, [&](int64_t i) { fn(i); });
+  tbb::parallel_for(int64_t(0), n, [&](int64_t i) {
+    flush_denormals_on_this_thread();
+    fn(i);
+  });
 }
 
 template class Layer<float>;

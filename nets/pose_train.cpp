@@ -1,7 +1,8 @@
 #include "nets/pose_train.h"
 
 #include "nets/checkpoint.h"
-#include "nets/sdf_train.h"  // write_loss_plot_svg
+#include "nets/denormals.h"
+#include "nets/plot.h"
 
 #include <chrono>
 #include <cmath>
@@ -153,6 +154,7 @@ std::unique_ptr<PoseNet> load_pose_model(const std::string& path, Json* training
 }
 
 PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(const PoseTrainEvent&)>& on_event) {
+  flush_denormals_on_this_thread();  // same arithmetic from the first step, resumed or not
   require(!s.data.empty() && !s.out.empty(), "train pose: --data and -o are required");
   require(s.steps > 0 && s.batch > 0 && s.points > 0 && s.val_every > 0 && s.val_items > 0,
           "train pose: steps, batch, points, val-every and val-items must be positive");

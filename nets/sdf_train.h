@@ -70,9 +70,4 @@ SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, i
 void save_sdf_model(const std::string& path, const SdfNet& net, const Json& training = Json::object());
 std::unique_ptr<SdfNet> load_sdf_model(const std::string& path, Json* training = nullptr);
 
-/// A small SVG line plot of CSV columns (x = first column): used for the loss curve.
-void write_loss_plot_svg(const std::string& path, const std::vector<std::vector<double>>& rows,
-                         const std::vector<std::string>& names, const std::vector<int>& columns,
-                         const std::string& title);
-
 }  // namespace sdfkit

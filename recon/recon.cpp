@@ -1,4 +1,4 @@
-#include "nets/recon.h"
+#include "recon/recon.h"
 
 #include "camera/render.h"
 #include "core/error.h"
