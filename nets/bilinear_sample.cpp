@@ -80,6 +80,20 @@ void bilinear_sample(const TensorT<T>& maps, const TensorT<T>& positions, Tensor
 }
 
 template <typename T>
+void bilinear_accumulate_hwc(const T* map_hwc, int64_t H, int64_t W, int64_t C, T x, T y,
+                             const BilinearSampleSettings& settings, T* acc) {
+  const Cell<T> c = make_cell(x, y, H, W, settings);
+  const T w00 = (T(1) - c.fy) * (T(1) - c.fx), w01 = (T(1) - c.fy) * c.fx, w10 = c.fy * (T(1) - c.fx),
+          w11 = c.fy * c.fx;
+  const T* p00 = map_hwc + (c.y0 * W + c.x0) * C;
+  const T* p01 = map_hwc + (c.y0 * W + c.x1) * C;
+  const T* p10 = map_hwc + (c.y1 * W + c.x0) * C;
+  const T* p11 = map_hwc + (c.y1 * W + c.x1) * C;
+  // Same expression, term order and association as bilinear_sample, so both give identical values.
+  for (int64_t ch = 0; ch < C; ++ch) acc[ch] += w00 * p00[ch] + w01 * p01[ch] + w10 * p10[ch] + w11 * p11[ch];
+}
+
+template <typename T>
 void bilinear_sample_backward(const TensorT<T>& maps, const TensorT<T>& positions, const TensorT<T>& dfeatures,
                               TensorT<T>* dmaps, TensorT<T>* dpositions, const BilinearSampleSettings& settings) {
   check(maps, positions);
@@ -132,5 +146,10 @@ template void bilinear_sample_backward<float>(const Tensor&, const Tensor&, cons
                                               const BilinearSampleSettings&);
 template void bilinear_sample_backward<double>(const TensorD&, const TensorD&, const TensorD&, TensorD*, TensorD*,
                                                const BilinearSampleSettings&);
+
+template void bilinear_accumulate_hwc<float>(const float*, int64_t, int64_t, int64_t, float, float,
+                                              const BilinearSampleSettings&, float*);
+template void bilinear_accumulate_hwc<double>(const double*, int64_t, int64_t, int64_t, double, double,
+                                               const BilinearSampleSettings&, double*);
 
 }  // namespace sdfkit

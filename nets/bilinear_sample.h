@@ -36,4 +36,11 @@ template <typename T>
 void bilinear_sample_backward(const TensorT<T>& maps, const TensorT<T>& positions, const TensorT<T>& dfeatures,
                               TensorT<T>* dmaps, TensorT<T>* dpositions, const BilinearSampleSettings& settings = {});
 
+/// Inference helper with the same cell, clamping and weights as bilinear_sample: one position (x, y) in a
+/// CHANNEL-LAST map (H x W x C, C contiguous values per pixel, so the C channels of a tap are one contiguous read);
+/// ADDS the sampled C values into `acc`.
+template <typename T>
+void bilinear_accumulate_hwc(const T* map_hwc, int64_t H, int64_t W, int64_t C, T x, T y,
+                             const BilinearSampleSettings& settings, T* acc);
+
 }  // namespace sdfkit

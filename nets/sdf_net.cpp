@@ -2,7 +2,9 @@
 
 #include "core/error.h"
 #include "nets/bilinear_sample.h"
+#include "nets/denormals.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -429,7 +431,15 @@ typename SdfNetT<T>::ShapeCode SdfNetT<T>::encode(const T* image, const Camera& 
     const auto& s = m.streams[si];
     if (s.uses_global) s.first_g->forward(code.global, code.bias[si]);
     code.proj[si].resize(static_cast<size_t>(s.local_maps));
-    for (int k = 0; k < s.local_maps; ++k) s.local_proj[k]->forward(code.maps[k], code.proj[si][k]);
+    for (int k = 0; k < s.local_maps; ++k) {
+      TensorT<T> chw;
+      s.local_proj[k]->forward(code.maps[k], chw);
+      const int64_t C = chw.dim(1), HW = chw.dim(2) * chw.dim(3);
+      TensorT<T>& hwc = code.proj[si][static_cast<size_t>(k)];
+      hwc.resize({chw.dim(2), chw.dim(3), C});
+      for (int64_t c = 0; c < C; ++c)
+        for (int64_t i = 0; i < HW; ++i) hwc[i * C + c] = chw[c * HW + i];
+    }
   }
   return code;
 }
@@ -451,45 +461,84 @@ void SdfNetT<T>::local_features(const ShapeCode& code, const PointsF& points, Te
   features.reshape({n, features.dim(-1)});
 }
 
+namespace {
+
+template <typename T>
+using RowMat = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// out = in W^T (+ b): one Linear layer on the rows of a block.
+template <typename T>
+void linear_rows(const Linear<T>& layer, const RowMat<T>& in, RowMat<T>& out) {
+  const int64_t I = layer.settings().in_features, O = layer.settings().out_features;
+  ConstMatMapT<T> W(layer.params(), O, I);
+  out.resize(in.rows(), O);
+  out.noalias() = in * W.transpose();
+  if (layer.settings().bias) out.rowwise() += Eigen::Map<const Eigen::Matrix<T, 1, Eigen::Dynamic>>(layer.params() + O * I, O);
+}
+
+/// Runs a chain of Linear and ReLU layers (the only kinds the streams use) on a block; returns the output, which
+/// lives in `a` or `b`.
+template <typename T>
+const RowMat<T>& run_rows(const Chain<T>& chain, const RowMat<T>& x, RowMat<T>& a, RowMat<T>& b) {
+  const RowMat<T>* in = &x;
+  for (const auto& layer : chain.layers) {
+    if (const auto* lin = dynamic_cast<const Linear<T>*>(layer.get())) {
+      RowMat<T>& out = in == &a ? b : a;
+      linear_rows(*lin, *in, out);
+      in = &out;
+    } else {
+      require(layer->type() == "relu" && in != &x, "SDF network: unexpected layer in a point stream");
+      RowMat<T>& io = in == &a ? a : b;
+      io = io.cwiseMax(T(0));
+    }
+  }
+  return *in;
+}
+
+}  // namespace
+
 template <typename T>
 void SdfNetT<T>::predict(const ShapeCode& code, const PointsF& points, Eigen::Matrix<T, Eigen::Dynamic, 1>& pred,
                          int chunk) const {
   const Impl& m = *impl_;
   const int S = config_.image_size;
+  const BilinearSampleSettings bs{S, S};
   const auto total = static_cast<int64_t>(points.rows());
   pred.setZero(total);
-  chunk = std::max(1, chunk);
-  for (int64_t c0 = 0; c0 < total; c0 += chunk) {
-    const int64_t n = std::min<int64_t>(chunk, total - c0);
-    const PointsF p = points.middleRows(c0, n);
-    TensorT<T> pts({1, n, 3});
-    for (int64_t i = 0; i < n; ++i)
-      for (int d = 0; d < 3; ++d) pts[3 * i + d] = static_cast<T>(p(i, d));
-    TensorT<T> pos;
-    if (m.max_local_maps > 0) {
-      pos.resize({1, n, 2});
-      project_for_sampling<T>(code.camera, p, S, pos.ptr());
-    }
-    for (size_t si = 0; si < m.streams.size(); ++si) {
-      const auto& s = m.streams[si];
-      TensorT<T> pf, z, h, out, f;
-      s.point_mlp.run(pts, pf);
-      s.first_p->forward(pf, z);
-      const int64_t H = z.dim(-1);
-      if (s.uses_global) {
-        const T* b = code.bias[si].ptr();
-        for (int64_t i = 0; i < n; ++i)
-          for (int64_t j = 0; j < H; ++j) z[i * H + j] += b[j];
+  require(code.bias.size() == m.streams.size() && code.proj.size() == m.streams.size(),
+          "SDF network: the shape code was not made by this network");
+  const int64_t block = std::clamp<int64_t>(chunk, 1, 256);
+  const int64_t blocks = (total + block - 1) / block;
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, blocks), [&](const tbb::blocked_range<int64_t>& range) {
+    flush_denormals_on_this_thread();
+    RowMat<T> x, a, b, z, c, d;
+    std::vector<T> pos;
+    for (int64_t bi = range.begin(); bi < range.end(); ++bi) {
+      const int64_t c0 = bi * block, n = std::min(block, total - c0);
+      const PointsF p = points.middleRows(c0, n);
+      x = p.template cast<T>();
+      if (m.max_local_maps > 0) {
+        pos.resize(static_cast<size_t>(2 * n));
+        project_for_sampling<T>(code.camera, p, S, pos.data());
       }
-      for (int k = 0; k < s.local_maps; ++k) {
-        bilinear_sample(code.proj[si][k], pos, f, BilinearSampleSettings{S, S});
-        for (int64_t i = 0; i < z.size(); ++i) z[i] += f[i];
+      for (size_t si = 0; si < m.streams.size(); ++si) {
+        const auto& s = m.streams[si];
+        const RowMat<T>& pf = run_rows(s.point_mlp, x, a, b);
+        linear_rows(*s.first_p, pf, z);
+        const int64_t H = z.cols();
+        if (s.uses_global) z.rowwise() += Eigen::Map<const Eigen::Matrix<T, 1, Eigen::Dynamic>>(code.bias[si].ptr(), H);
+        for (int k = 0; k < s.local_maps; ++k) {
+          const TensorT<T>& map = code.proj[si][static_cast<size_t>(k)];
+          for (int64_t i = 0; i < n; ++i)
+            bilinear_accumulate_hwc(map.ptr(), map.dim(0), map.dim(1), H, pos[2 * i], pos[2 * i + 1], bs,
+                                    z.data() + i * H);
+        }
+        z = z.cwiseMax(T(0));
+        const RowMat<T>& out = run_rows(s.rest, z, c, d);
+        pred.segment(c0, n) += out.col(0);
       }
-      s.act.forward(z, h);
-      s.rest.run(h, out);
-      for (int64_t i = 0; i < n; ++i) pred[c0 + i] += out[i];
     }
-  }
+  });
 }
 
 template <typename T>

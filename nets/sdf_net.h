@@ -107,13 +107,16 @@ class SdfNetT {
     std::vector<TensorT<T>> maps;  ///< 1 x c_k x h_k x w_k
     TensorT<T> global;             ///< 1 x G
     std::vector<TensorT<T>> bias;  ///< per stream: 1 x H1, W_g G + b (the per-shape bias of the first layer)
-    /// per stream, per map used: 1 x H1 x h_k x w_k, the first layer's weights applied to every map pixel
+    /// per stream, per map used: h_k x w_k x H1 (channel-last, so the H1 values a point gathers from one pixel
+    /// are contiguous), the first layer's local weights applied to every map pixel
     std::vector<std::vector<TensorT<T>>> proj;
     Camera camera;
   };
   /// Encode one image (3 x S x S channels-first, values in [0,1]) seen from `camera`.
   ShapeCode encode(const T* image, const Camera& camera) const;
-  /// Network output (pred) for points (object frame). Thread-safe; internal batches of `chunk` points.
+  /// Network output (pred) for points (object frame). Thread-safe; TBB-parallel over fixed blocks of
+  /// min(chunk, 256) points (so the values do not depend on the thread count), each block run through the
+  /// whole network with its own buffers (no gradient storage, no per-layer parallel overhead).
   void predict(const ShapeCode& code, const PointsF& points, Eigen::Matrix<T, Eigen::Dynamic, 1>& pred,
                int chunk = 8192) const;
   /// Approximate signed distance for extraction: pred / sdf_scale (SDF variants; 0 level = sdf_offset level),

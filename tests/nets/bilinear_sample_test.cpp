@@ -136,3 +136,24 @@ TEST_CASE("bilinear sample: affine maps are reproduced exactly; bad shapes rejec
   TensorD bad({2, 30, 2});
   CHECK_THROWS_AS(bilinear_sample(maps, bad, y), InvalidInput);
 }
+
+TEST_CASE("bilinear sample: the channel-last accumulate helper equals bilinear_sample, borders included") {
+  const int C = 5, H = 4, W = 6;
+  const TensorD maps = random_tensor(Shape{1, C, H, W}, 7);
+  // Positions in a 13-pixel reference image: interior, exactly integer, on and beyond every border.
+  const std::vector<double> xy{3.3, 7.9, 0, 0, 12, 12, -2.5, 5, 14.2, -1, 6, 6.5, 12, 0.25};
+  const int64_t P = static_cast<int64_t>(xy.size() / 2);
+  TensorD pos(Shape{1, P, 2});
+  for (size_t i = 0; i < xy.size(); ++i) pos[static_cast<int64_t>(i)] = xy[i];
+  const BilinearSampleSettings st{13, 13};
+  TensorD ref;
+  bilinear_sample(maps, pos, ref, st);
+  std::vector<double> hwc(static_cast<size_t>(C * H * W));
+  for (int c = 0; c < C; ++c)
+    for (int i = 0; i < H * W; ++i) hwc[static_cast<size_t>(i * C + c)] = maps[c * H * W + i];
+  for (int64_t p = 0; p < P; ++p) {
+    std::vector<double> acc(C, 1.5);  // accumulates onto what is there
+    bilinear_accumulate_hwc(hwc.data(), H, W, C, pos[2 * p], pos[2 * p + 1], st, acc.data());
+    for (int c = 0; c < C; ++c) CHECK(acc[static_cast<size_t>(c)] - 1.5 == doctest::Approx(ref[p * C + c]).epsilon(1e-12));
+  }
+}

@@ -93,8 +93,11 @@ TEST_CASE("SDF network: finite-difference gradient check of every parameter clas
   }
 }
 
-TEST_CASE("SDF network: training forward and the per-shape inference path agree") {
-  SdfNetT<double> net(tiny_config(SdfVariant::TwoStream));
+TEST_CASE("SDF network: training forward and the per-shape inference path agree, every variant") {
+  for (const SdfVariant variant :
+       {SdfVariant::TwoStream, SdfVariant::OneStream, SdfVariant::GlobalOnly, SdfVariant::Binary}) {
+  CAPTURE(to_string(variant));
+  SdfNetT<double> net(tiny_config(variant));
   net.init(5);
   Rng rng(2);
   const int N = 40, S = 17;
@@ -112,6 +115,15 @@ TEST_CASE("SDF network: training forward and the per-shape inference path agree"
   net.predict(code, p, inf, 7);  // several internal chunks
   // Points went through float in the inference path: compare with a tolerance of float rounding.
   for (int i = 0; i < N; ++i) CHECK(inf[i] == doctest::Approx(pred[i]).epsilon(1e-4).scale(1.0));
+  // Block size must not change any value (blocks of 1 point, of 7, of the default).
+  Eigen::VectorXd one, whole;
+  net.predict(code, p, one, 1);
+  net.predict(code, p, whole);
+  for (int i = 0; i < N; ++i) {
+    CHECK(one[i] == doctest::Approx(inf[i]).epsilon(1e-12).scale(1.0));
+    CHECK(whole[i] == doctest::Approx(inf[i]).epsilon(1e-12).scale(1.0));
+  }
+  }
 }
 
 TEST_CASE("SDF network: the local-feature path is used and samples where the point projects") {
