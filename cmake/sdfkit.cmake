@@ -5,8 +5,11 @@ target_compile_options(sdfkit_warnings INTERFACE -Wall -Wextra -Wpedantic -Wno-s
 if(SDFKIT_WERROR)
   target_compile_options(sdfkit_warnings INTERFACE -Werror)
 endif()
+# -march=native applies to every target (libraries, apps, tests) so that Eigen's alignment and vector ABI agree
+# across translation units. Opt-in (SDFKIT_NATIVE=ON scripts/build): about 1.5x faster networks, but results then
+# differ across CPUs and resumed training was measured not bit-exact (likely alignment-dependent reductions).
 if(SDFKIT_NATIVE)
-  target_compile_options(sdfkit_warnings INTERFACE -march=native)
+  add_compile_options(-march=native)
 endif()
 
 # sdfkit_library(NAME DEPS a b c): every *.cpp in the calling folder becomes the static library
