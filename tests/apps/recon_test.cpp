@@ -63,11 +63,12 @@ bool have_models() {
 
 }  // namespace
 
-// Issue 8 asks for IoU > 0.5 on a shipped example. The shipped model reaches 0.22 (estimated camera) and 0.25
-// (true camera) after 30 minutes of training on a loaded machine, so that requirement is not met and issue 8
-// stays open. The assertion is kept out of the suite until a better-trained model ships, because a red check
-// blocks every other change. The IoU is printed so that a run shows where the model stands.
-TEST_CASE("recon of a shipped example with the shipped models: closed mesh; the true camera is as good") {
+// Issue 8: recon of a shipped example reaches IoU > 0.5 against its GT with the shipped models (a check of the
+// model, not only of the code path), and the true camera is at least as good. Measured with the models of
+// 2026-11-21: 0.567 with the true camera, 0.490 with the estimated one (the pose network's 15 px d2D costs it;
+// docs/results/pose.md). The SDF model's check (true camera) is asserted; the estimated-camera IoU is printed and
+// issue 8 stays open until the pose network is good enough for it to pass 0.5 as well.
+TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with the true camera, closed mesh") {
   REQUIRE_MESSAGE(have_models(), "the shipped models data/models/sdf.ckpt and pose.ckpt are missing");
   const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli" / "example";
   fs::remove_all(dir);
@@ -87,8 +88,10 @@ TEST_CASE("recon of a shipped example with the shipped models: closed mesh; the 
   CHECK(closed_and_oriented(m));
   const double iou_est = iou_of(est, gt), iou_cam = iou_of(cam, gt);
   MESSAGE("IoU estimated camera " << iou_est << ", true camera " << iou_cam);
+  CHECK(iou_cam > 0.5);
   // "At least as good", up to 0.02 of IoU: the two runs differ only by the camera.
   CHECK(iou_cam >= iou_est - 0.02);
+  CHECK(iou_est > 0.4);  // far above the 0.22 of the first shipped models; the goal (0.5) is not reached yet
 }
 
 TEST_CASE("recon refuses corrupt, empty and background-only images with one clear line and exit 1") {
