@@ -3,6 +3,7 @@
 //    dense Hungarian method
 //    (and DISN's approximate matcher), on surface samples of two different shapes;
 //  - Chamfer distance on 100k vs 100k points: KD-tree evaluator, checked against brute force on a subset.
+#include "apps/bench_util.h"
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
@@ -24,23 +25,12 @@
 namespace sdfkit::app {
 namespace {
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
+using bench::median;
+using bench::seconds_since;
 
 // CPU time of the whole process: on a machine shared with other jobs, wall time of a one-thread run mostly
 // measures the queue; CPU time measures the work.
-double cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+const auto cpu_seconds = bench::process_cpu_seconds;
 
 std::function<int()> setup_bench_metrics(CLI::App& app) {
   struct Opts {

@@ -2,6 +2,7 @@
 // threads, grid memory and active voxels against a dense 257^3 grid computed in the same run (exact distance +
 // winding-number sign at every grid point), and the grid's error against a brute-force exact SDF at random band
 // points. Results: docs/benchmarks/prep.md.
+#include "apps/bench_util.h"
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
@@ -30,27 +31,12 @@
 namespace sdfkit::app {
 namespace {
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-double peak_rss_mb() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return u.ru_maxrss / 1024.0;  // Linux: kilobytes
-}
-
+using bench::Clock;
+using bench::median;
+using bench::peak_rss_mb;
+using bench::seconds_since;
 /// CPU seconds of the whole process (user + system): robust to other processes sharing the machine.
-double cpu_seconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
+const auto cpu_seconds = bench::process_cpu_seconds;
 
 /// ~50k-triangle closed mesh: a torus with 160 x 160 quads (51,200 triangles).
 Mesh bench_closed() { return make_torus(Vec3::Zero(), 0.65, 0.25, 160, 160); }

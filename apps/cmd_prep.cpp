@@ -21,12 +21,15 @@
 #include <map>
 #include <mutex>
 #include <set>
+#include <utility>
 
 namespace sdfkit::app {
 namespace {
 namespace fs = std::filesystem;
 
 struct ShapeJob {
+  ShapeJob(std::string c, std::string s, std::string p)
+      : category(std::move(c)), shape(std::move(s)), path(std::move(p)) {}
   std::string category, shape, path;
   std::string status = "pending";  // ok | failed
   std::string reason;

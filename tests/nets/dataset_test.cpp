@@ -28,7 +28,7 @@ fs::path make_fake_dataset(const std::string& name) {
     for (int r = 0; r < 100; ++r) samples.row(r) << 0.01f * r, -0.01f * r, float(s), float(1000 * s + r);
     write_npy((dir / "samples.npy").string(), samples);
     for (int v = 0; v < views; ++v) {
-      char nn[8];
+      char nn[16];
       std::snprintf(nn, sizeof nn, "%02d", v);
       write_camera((dir / "views" / (std::string(nn) + ".json")).string(), look_at(30.0 * v + 10 * s, 20, 2.0));
       Image img(137, 137, 4, 0.f);  // transparent, with one opaque red square
