@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <set>
 #include <sstream>
 
 namespace sdfkit::app {
@@ -72,7 +73,7 @@ std::string find_prediction(const fs::path& dir, const std::string& shape) {
 }
 
 struct Opts {
-  std::string pred, gt, protocol = "disn", emd = "exact", out;
+  std::string pred, gt, protocol = "disn", emd = "exact", out, split;
   uint64_t seed = 0;
   bool json = false, csv = false, no_emd = false, no_iou = false;
   int jobs = 0;
@@ -144,6 +145,19 @@ int run_folders(const Opts& o) {
   const ProtocolSettings s = settings_of(o);
   std::vector<ShapeRecord> records;
   const fs::path gt_root(o.gt), pred_root(o.pred);
+  // --split: only the listed <category>/<shape> entries (a name -> GT/NAME.lst, or a list file).
+  std::set<std::string> wanted;
+  if (!o.split.empty()) {
+    const fs::path list = fs::exists(o.split) ? fs::path(o.split) : gt_root / (o.split + ".lst");
+    std::ifstream in(list);
+    if (!in) throw InvalidInput("--split " + o.split + ": neither a list file nor " + list.string());
+    for (std::string line; std::getline(in, line);) {
+      while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+      if (!line.empty() && line[0] != '#') wanted.insert(line);
+    }
+    if (wanted.empty()) throw InvalidInput(list.string() + ": the split lists no shapes");
+  }
+  std::set<std::string> seen;
   std::vector<fs::path> categories;
   for (const auto& e : fs::directory_iterator(gt_root))
     if (e.is_directory()) categories.push_back(e.path());
@@ -154,6 +168,9 @@ int run_folders(const Opts& o) {
       if (e.is_directory() && fs::exists(e.path() / "gt.obj")) shapes.push_back(e.path());
     std::sort(shapes.begin(), shapes.end());
     for (const auto& sh : shapes) {
+      const std::string id = cat.filename().string() + "/" + sh.filename().string();
+      if (!wanted.empty() && !wanted.count(id)) continue;
+      seen.insert(id);
       ShapeRecord r;
       r.category = cat.filename().string();
       r.shape = sh.filename().string();
@@ -164,6 +181,16 @@ int run_folders(const Opts& o) {
       records.push_back(std::move(r));
     }
   }
+  for (const std::string& id : wanted)  // listed but without a ground truth: reported, not skipped
+    if (!seen.count(id)) {
+      ShapeRecord r;
+      const size_t slash = id.find('/');
+      r.category = slash == std::string::npos ? "default" : id.substr(0, slash);
+      r.shape = slash == std::string::npos ? id : id.substr(slash + 1);
+      r.status = "failed";
+      r.reason = "listed in --split " + o.split + " but " + (gt_root / id / "gt.obj").string() + " does not exist";
+      records.push_back(std::move(r));
+    }
   if (records.empty()) throw InvalidInput(o.gt + ": no ground-truth shapes (<gt>/<category>/<shape>/gt.obj) found");
   // Predictions without a ground truth are reported, not scored.
   long extra = 0;
@@ -238,6 +265,9 @@ std::function<int()> setup_eval(CLI::App& app) {
   app.add_flag("--no-iou", o->no_iou, "skip IoU (reported as null)");
   auto* json = app.add_flag("--json", o->json, "JSON output (pair: the result; folders: the summary)");
   app.add_flag("--csv", o->csv, "CSV output (pair: one row; folders: one row per shape)")->excludes(json);
+  app.add_option("--split", o->split,
+                 "folders: score only the <category>/<shape> entries of this split (a name looked up as GT/NAME.lst, "
+                 "or a list file); other shapes are not counted as missing");
   app.add_option("--jobs", o->jobs, "shapes scored in parallel in folder mode (default: all cores)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("-o,--out", o->out,

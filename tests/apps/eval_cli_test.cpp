@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
@@ -231,4 +232,37 @@ TEST_CASE("eval refuses bad input with one line naming the file (exit 1)") {
 
   r = run("eval " + good.string() + " " + good.string() + " --protocol nope");
   CHECK(r.code == 1);
+}
+
+TEST_CASE("eval of folders with --split: only the listed shapes are scored; a listed shape without GT is reported") {
+  const fs::path root = scratch() / "split";
+  fs::remove_all(root);
+  const fs::path gt = root / "gt", pred = root / "pred";
+  for (const char* s : {"chair/a", "chair/b", "table/c"}) fs::create_directories(gt / s);
+  fs::create_directories(pred / "chair");
+  for (const char* s : {"chair/a", "chair/b", "table/c"})
+    write_mesh((gt / s / "gt.obj").string(), make_sphere(Vec3::Zero(), kR2, 16, 32));
+  write_mesh((pred / "chair/a.obj").string(), make_sphere(Vec3::Zero(), kR1, 16, 32));
+  {
+    std::ofstream((gt / "test.lst").string()) << "chair/a\n";
+    std::ofstream((root / "bad.lst").string()) << "chair/a\ntable/zzz\n";
+  }
+  // Only chair/a is in the split: nothing is missing, exit 0.
+  Run r = run("eval " + pred.string() + " " + gt.string() + " --protocol tmnet --json --split test");
+  CHECK_MESSAGE(r.code == 0, r.err);
+  Json s = Json::parse(r.out);
+  CHECK(s["mean"]["total"] == 1);
+  CHECK(s["mean"]["ok"] == 1);
+  CHECK(s["mean"]["missing"] == 0);
+  // A list file naming a shape without ground truth: reported as failed (exit 2), with the path in the reason.
+  r = run("eval " + pred.string() + " " + gt.string() + " --protocol tmnet --json --split " + (root / "bad.lst").string());
+  CHECK(r.code == 2);
+  s = Json::parse(r.out);
+  CHECK(s["mean"]["total"] == 2);
+  CHECK(s["mean"]["ok"] == 1);
+  CHECK(r.err.find("zzz") != std::string::npos);
+  // An unknown split name is a user error.
+  r = run("eval " + pred.string() + " " + gt.string() + " --split nosuch");
+  CHECK(r.code == 1);
+  CHECK(r.err.find("nosuch") != std::string::npos);
 }
