@@ -11,6 +11,26 @@
 
 namespace sdfkit::metrics {
 
+namespace {
+
+/// Merges `edges` into one row's candidate list (validated against n columns), keeping it sorted by column with
+/// one entry per column (the lowest cost given stays; a first batch already sorted and unique is taken as is).
+/// Returns how many entries the row had before.
+size_t merge_row_edges(std::vector<std::pair<int, double>>& e, const std::vector<std::pair<int, double>>& edges,
+                       int n) {
+  const size_t before = e.size();
+  for (const auto& [col, c] : edges) {
+    if (col < 0 || col >= n || !std::isfinite(c)) throw InvalidInput("assignment: bad edge");
+    e.emplace_back(col, c);
+  }
+  if (before > 0 || !std::is_sorted(e.begin(), e.end())) std::sort(e.begin(), e.end());
+  e.erase(std::unique(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first == b.first; }), e.end());
+  return before;
+}
+
+}  // namespace
+
+
 std::vector<int> hungarian(const Eigen::MatrixXd& cost, double* total) {
   require(cost.rows() == cost.cols(), "hungarian: cost matrix is " + std::to_string(cost.rows()) + " x " +
                                           std::to_string(cost.cols()) + ", not square");
@@ -81,15 +101,7 @@ SparseAuction::SparseAuction(int n)
 
 int SparseAuction::add_edges(int row, const std::vector<std::pair<int, double>>& edges) {
   auto& e = edges_[static_cast<size_t>(row)];
-  const size_t before = e.size();
-  for (const auto& [col, c] : edges) {
-    if (col < 0 || col >= n_ || !std::isfinite(c)) throw InvalidInput("assignment: bad edge");
-    e.emplace_back(col, c);
-  }
-  // Sort by column (then cost), drop repeated columns: the lowest cost given for a column stays. (A first
-  // batch that is already sorted and unique is taken as is.)
-  if (before > 0 || !std::is_sorted(e.begin(), e.end())) std::sort(e.begin(), e.end());
-  e.erase(std::unique(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first == b.first; }), e.end());
+  const size_t before = merge_row_edges(e, edges, n_);
   if (e.size() > before) bid_eps_[static_cast<size_t>(row)] = std::numeric_limits<double>::infinity();
   return static_cast<int>(e.size() - before);
 }
@@ -248,13 +260,7 @@ SparseShortestPath::SparseShortestPath(int n)
 
 int SparseShortestPath::add_edges(int row, const std::vector<std::pair<int, double>>& edges) {
   auto& e = edges_[static_cast<size_t>(row)];
-  const size_t before = e.size();
-  for (const auto& [col, c] : edges) {
-    if (col < 0 || col >= n_ || !std::isfinite(c)) throw InvalidInput("assignment: bad edge");
-    e.emplace_back(col, c);
-  }
-  if (before > 0 || !std::is_sorted(e.begin(), e.end())) std::sort(e.begin(), e.end());
-  e.erase(std::unique(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first == b.first; }), e.end());
+  const size_t before = merge_row_edges(e, edges, n_);
   const int s = col_of_row_[static_cast<size_t>(row)];
   if (e.size() > before && s >= 0) {
     // Still tight? (the assigned edge must attain the row minimum of c_ij - v_j)
