@@ -4,13 +4,11 @@
 #include "core/files.h"
 #include "core/mesh_io.h"
 #include "core/primitives.h"
+#include "cli_run.h"
 
 #include <doctest/doctest.h>
 
-#include <sys/wait.h>
-
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -23,12 +21,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kExe = SDFKIT_EXE;
-
-struct Run {
-  int code = -1;
-  std::string out, err;
-};
+using Run = test::CliRun;
 
 fs::path scratch() {
   const fs::path dir = fs::temp_directory_path() / "sdfkit_eval_cli";
@@ -36,16 +29,7 @@ fs::path scratch() {
   return dir;
 }
 
-Run run(const std::string& args) {
-  const fs::path dir = scratch();
-  const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
-  const int status = std::system((kExe + " " + args + " > " + out + " 2> " + err).c_str());
-  Run r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = fs::exists(out) ? read_file(out) : "";
-  r.err = fs::exists(err) ? read_file(err) : "";
-  return r;
-}
+Run run(const std::string& args) { return test::run_sdfkit(args, scratch()); }
 
 std::vector<std::string> split(const std::string& s, char sep) {
   std::vector<std::string> parts;

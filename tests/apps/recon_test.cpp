@@ -3,12 +3,10 @@
 #include "core/files.h"
 #include "core/mesh_io.h"
 #include "metrics/protocols.h"
+#include "cli_run.h"
 
 #include <doctest/doctest.h>
 
-#include <sys/wait.h>
-
-#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <utility>
@@ -19,24 +17,10 @@ namespace fs = std::filesystem;
 namespace {
 
 const std::string kSource = SDFKIT_SOURCE_DIR;
-const std::string kExe = SDFKIT_EXE;
 
-struct Run {
-  int code = -1;
-  std::string err, out;
-};
+using Run = test::CliRun;
 
-Run run(const std::string& args) {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli";
-  fs::create_directories(dir);
-  const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
-  const int status = std::system((kExe + " " + args + " > " + out + " 2> " + err).c_str());
-  Run r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = fs::exists(out) ? read_file(out) : "";
-  r.err = fs::exists(err) ? read_file(err) : "";
-  return r;
-}
+Run run(const std::string& args) { return test::run_sdfkit(args, fs::temp_directory_path() / "sdfkit_recon_cli"); }
 
 /// Every undirected edge is used by exactly two faces, in opposite directions (closed, consistently oriented).
 bool closed_and_oriented(const Mesh& m) {

@@ -1,0 +1,32 @@
+// For CLI-level tests: runs the built `sdfkit` executable (SDFKIT_EXE, defined by tests/CMakeLists.txt) and returns
+// its exit code, stdout and stderr.
+#pragma once
+
+#include "core/files.h"
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+namespace sdfkit::test {
+
+struct CliRun {
+  int code = -1;
+  std::string out, err;
+};
+
+/// `sdfkit ARGS`; stdout and stderr pass through files in `scratch` (created if needed).
+inline CliRun run_sdfkit(const std::string& args, const std::filesystem::path& scratch) {
+  std::filesystem::create_directories(scratch);
+  const std::string out = (scratch / "stdout.txt").string(), err = (scratch / "stderr.txt").string();
+  const int status = std::system((std::string(SDFKIT_EXE) + " " + args + " > " + out + " 2> " + err).c_str());
+  CliRun r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = std::filesystem::exists(out) ? read_file(out) : "";
+  r.err = std::filesystem::exists(err) ? read_file(err) : "";
+  return r;
+}
+
+}  // namespace sdfkit::test
