@@ -68,6 +68,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
     std::string json_out, sign = "auto";
     double band = 0.0;
     bool no_dense = false;
+    std::string only;
   };
   auto o = std::make_shared<Opts>();
   app.add_option("meshes", o->meshes, "extra meshes to time (default: the built-in 50k closed mesh and soup, and "
@@ -88,6 +89,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
   app.add_option("--sign", o->sign, "sign method as in `sdfkit prep --sign`: auto or winding")
       ->check(CLI::IsMember({"auto", "winding"}))
       ->capture_default_str();
+  app.add_option("--only", o->only, "time only the shapes whose name contains this text (e.g. torus, soup)");
   app.add_option("--json", o->json_out, "also write the results as JSON to this file");
   return [o] {
     std::vector<Shape> shapes = {{"closed torus 51k", bench_closed()}, {"soup 10 spheres 51k", bench_soup()}};
@@ -99,6 +101,10 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
       std::sort(files.begin(), files.end());
     }
     for (const auto& f : files) shapes.push_back({fs::path(f).filename().string(), read_mesh(f)});
+    if (!o->only.empty())
+      shapes.erase(std::remove_if(shapes.begin(), shapes.end(),
+                                  [&](const Shape& sh) { return sh.name.find(o->only) == std::string::npos; }),
+                   shapes.end());
     const fs::path tmp = fs::temp_directory_path() / ("sdfkit_bench_prep_" + std::to_string(::getpid()));
     Json results = Json::array();
     std::printf("%-22s %7s %5s %8s %8s %8s %8s %10s %8s %8s %9s %9s %9s %9s %9s %8s\n", "shape", "tris", "sign",

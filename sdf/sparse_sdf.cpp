@@ -1,6 +1,7 @@
 #include "sdf/sparse_sdf.h"
 
 #include "core/error.h"
+#include "sdf/band_triangle.h"
 #include "sdf/distance.h"
 #include "sdf/orientation.h"
 #include "sdf/pseudonormal.h"
@@ -216,12 +217,8 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
   {
     constexpr int32_t D = LeafT::DIM;
     const auto nf = static_cast<size_t>(mesh.F.rows());
-    struct Tri {
-      Vec3 a, b, c, n;  ///< corners, unit normal (zero when degenerate)
-      double offset;    ///< n . a
-      openvdb::Coord lo, hi;  ///< voxel index box of the grown bounding box
-    };
-    std::vector<Tri> tris(nf);
+    std::vector<BandTriangle> tris(nf);
+    std::vector<std::pair<Coord, Coord>> tri_box(nf);  ///< voxel index box of each grown bounding box
     auto leaf_key = [](const Coord& c) {
       // Leaf coordinates (voxel >> 3) in 21 bits each.
       return (static_cast<uint64_t>((c.x() >> 3) + (1 << 20)) << 42) |
@@ -237,21 +234,17 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
         auto& out = chunk_pairs[ch];
         for (size_t f = ch * 4096; f < std::min(nf, (ch + 1) * 4096); ++f) {
           const auto fi = static_cast<Eigen::Index>(f);
-          Tri& t = tris[f];
-          t.a = mesh.V.row(mesh.F(fi, 0));
-          t.b = mesh.V.row(mesh.F(fi, 1));
-          t.c = mesh.V.row(mesh.F(fi, 2));
-          const Vec3 n = (t.b - t.a).cross(t.c - t.a);
-          t.n = n.norm() > 0 ? Vec3(n.normalized()) : Vec3::Zero();
-          t.offset = t.n.dot(t.a);
-          const Vec3 lo = t.a.cwiseMin(t.b).cwiseMin(t.c), hi = t.a.cwiseMax(t.b).cwiseMax(t.c);
+          const Vec3 a = mesh.V.row(mesh.F(fi, 0)), b = mesh.V.row(mesh.F(fi, 1)), c = mesh.V.row(mesh.F(fi, 2));
+          tris[f] = BandTriangle::make(a, b, c);
+          const Vec3 lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+          auto& t = tri_box[f];
           for (int k = 0; k < 3; ++k) {
-            t.lo[k] = static_cast<int32_t>(std::ceil((lo[k] - width) / h)) + O;
-            t.hi[k] = static_cast<int32_t>(std::floor((hi[k] + width) / h)) + O;
+            t.first[k] = static_cast<int32_t>(std::ceil((lo[k] - width) / h)) + O;
+            t.second[k] = static_cast<int32_t>(std::floor((hi[k] + width) / h)) + O;
           }
-          for (int32_t x = t.lo.x() & ~(D - 1); x <= t.hi.x(); x += D)
-            for (int32_t y = t.lo.y() & ~(D - 1); y <= t.hi.y(); y += D)
-              for (int32_t z = t.lo.z() & ~(D - 1); z <= t.hi.z(); z += D)
+          for (int32_t x = t.first.x() & ~(D - 1); x <= t.second.x(); x += D)
+            for (int32_t y = t.first.y() & ~(D - 1); y <= t.second.y(); y += D)
+              for (int32_t z = t.first.z() & ~(D - 1); z <= t.second.z(); z += D)
                 out.emplace_back(leaf_key(Coord(x, y, z)), static_cast<int32_t>(f));
         }
       }
@@ -276,9 +269,9 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
         // voxel (~50 triangle tests); then query the BVH instead, each query started from the previous face.
         long scan_cost = 0;
         for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi) {
-          const Tri& t = tris[static_cast<size_t>(pairs[pi].second)];
-          const Coord lo = Coord::maxComponent(t.lo, origin);
-          const Coord hi = Coord::minComponent(t.hi, origin.offsetBy(D - 1));
+          const auto& t = tri_box[static_cast<size_t>(pairs[pi].second)];
+          const Coord lo = Coord::maxComponent(t.first, origin);
+          const Coord hi = Coord::minComponent(t.second, origin.offsetBy(D - 1));
           scan_cost += static_cast<long>(std::max(0, hi.x() - lo.x() + 1)) * std::max(0, hi.y() - lo.y() + 1) *
                        std::max(0, hi.z() - lo.z() + 1);
         }
@@ -294,19 +287,15 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
           }
         } else
         for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi) {
-          const Tri& t = tris[static_cast<size_t>(pairs[pi].second)];
-          const Coord lo = Coord::maxComponent(t.lo, origin);
-          const Coord hi = Coord::minComponent(t.hi, origin.offsetBy(D - 1));
+          const BandTriangle& t = tris[static_cast<size_t>(pairs[pi].second)];
+          const auto& box = tri_box[static_cast<size_t>(pairs[pi].second)];
+          const Coord lo = Coord::maxComponent(box.first, origin);
+          const Coord hi = Coord::minComponent(box.second, origin.offsetBy(D - 1));
           for (int32_t x = lo.x(); x <= hi.x(); ++x)
-            for (int32_t y = lo.y(); y <= hi.y(); ++y)
-              for (int32_t z = lo.z(); z <= hi.z(); ++z) {
-                const size_t i = static_cast<size_t>(((x - origin.x()) * D + (y - origin.y())) * D + (z - origin.z()));
-                const Vec3 p((x - O) * h, (y - O) * h, (z - O) * h);
-                const double plane = t.n.dot(p) - t.offset;  // a lower bound of the distance to the triangle
-                if (plane * plane >= best[i]) continue;
-                const double d2 = (closest_point_on_triangle(p, t.a, t.b, t.c) - p).squaredNorm();
-                if (d2 < best[i]) best[i] = d2;
-              }
+            for (int32_t y = lo.y(); y <= hi.y(); ++y) {
+              const size_t i = static_cast<size_t>(((x - origin.x()) * D + (y - origin.y())) * D + (lo.z() - origin.z()));
+              t.row_min((x - O) * h, (y - O) * h, lo.z(), hi.z() - lo.z() + 1, O, h, &best[i]);
+            }
         }
         bool any = false;
         for (double b : best) any = any || b < width2;
