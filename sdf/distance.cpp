@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace sdfkit {
@@ -19,6 +20,37 @@ MeshDistance::MeshDistance(const Mesh& mesh) : bvh_(TriangleBvh::build(mesh, 4))
   require(mesh.F.rows() > 0, "MeshDistance: the mesh has no faces");
   slot_of_face_.resize(bvh_.face.size());
   for (size_t s = 0; s < bvh_.face.size(); ++s) slot_of_face_[static_cast<size_t>(bvh_.face[s])] = static_cast<int32_t>(s);
+  qnodes_.resize(bvh_.nodes.size());
+  for (size_t n = 0; n < bvh_.nodes.size(); ++n) {
+    const auto& node = bvh_.nodes[n];
+    QueryNode& q = qnodes_[n];
+    q.begin = node.begin;
+    q.end = node.end;
+    if (node.leaf()) continue;
+    q.child[0] = node.left;
+    q.child[1] = node.right;
+    for (int c = 0; c < 2; ++c) {
+      const auto& box = bvh_.nodes[static_cast<size_t>(q.child[c])].box;
+      for (int a = 0; a < 3; ++a) {
+        q.lo[a][c] = box.min()[a];
+        q.hi[a][c] = box.max()[a];
+      }
+    }
+  }
+  plane_.resize(bvh_.corners.size());
+  for (size_t s = 0; s < bvh_.corners.size(); ++s) {
+    const auto& t = bvh_.corners[s];
+    const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]);
+    const double len = n.norm();
+    // Only well-shaped triangles get a plane bound (a sliver's normal is not accurate enough to bound with).
+    const double longest2 = std::max({(t[1] - t[0]).squaredNorm(), (t[2] - t[1]).squaredNorm(), (t[0] - t[2]).squaredNorm()});
+    if (len > 1e-6 * longest2 && longest2 > 0) {
+      const Vec3 u = n / len;
+      plane_[s] = {u.x(), u.y(), u.z(), u.dot(t[0])};
+    } else {
+      plane_[s] = {0, 0, 0, 0};
+    }
+  }
 }
 
 ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound) const { return closest(p, upper_bound, -1); }
@@ -46,13 +78,17 @@ ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound, int32_t hi
   Entry stack[128];
   int top = 0;
   stack[top++] = {0, box_distance2(bvh_.nodes[0].box, p)};
+  const double px = p.x(), py = p.y(), pz = p.z();
   while (top > 0) {
     const Entry e = stack[--top];
     if (e.d2 >= best2) continue;
-    const auto& node = bvh_.nodes[e.node];
-    if (node.leaf()) {
+    const QueryNode& node = qnodes_[static_cast<size_t>(e.node)];
+    if (node.child[0] < 0) {
       for (int32_t s = node.begin; s < node.end; ++s) {
-        if (box_distance2(bvh_.boxes[s], p) > best2) continue;  // cannot be closer (ties still compared below)
+        const auto& pl = plane_[static_cast<size_t>(s)];
+        const double plane = pl[0] * px + pl[1] * py + pl[2] * pz - pl[3];  // a lower bound of the distance
+        if (plane * plane > best2) continue;  // cannot be closer (ties still compared below)
+        if (box_distance2(bvh_.boxes[s], p) > best2) continue;
         const auto& t = bvh_.corners[s];
         int region = 0;
         const Vec3 q = closest_point_on_triangle(p, t[0], t[1], t[2], &region);
@@ -66,16 +102,17 @@ ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound, int32_t hi
       }
       continue;
     }
-    const double dl = box_distance2(bvh_.nodes[node.left].box, p);
-    const double dr = box_distance2(bvh_.nodes[node.right].box, p);
-    // Push the farther child first so the nearer one is explored first.
-    if (dl < dr) {
-      stack[top++] = {node.right, dr};
-      stack[top++] = {node.left, dl};
-    } else {
-      stack[top++] = {node.left, dl};
-      stack[top++] = {node.right, dr};
+    double d[2];
+    for (int c = 0; c < 2; ++c) {
+      const double dx = std::max(std::max(node.lo[0][c] - px, px - node.hi[0][c]), 0.0);
+      const double dy = std::max(std::max(node.lo[1][c] - py, py - node.hi[1][c]), 0.0);
+      const double dz = std::max(std::max(node.lo[2][c] - pz, pz - node.hi[2][c]), 0.0);
+      d[c] = dx * dx + dy * dy + dz * dz;
     }
+    // Push the farther child first so the nearer one is explored first; children beyond the bound not at all.
+    const int near = d[0] < d[1] ? 0 : 1, far = 1 - near;
+    if (d[far] < best2) stack[top++] = {node.child[far], d[far]};
+    if (d[near] < best2) stack[top++] = {node.child[near], d[near]};
   }
   if (best.face >= 0) best.distance = std::sqrt(best2);
   return best;

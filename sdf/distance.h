@@ -33,7 +33,16 @@ class MeshDistance {
   static double brute_force(const Mesh& mesh, const Vec3& p);
 
  private:
+  /// Query layout of one BVH node: both children's boxes side by side (one fetch, two box distances), or the
+  /// node's slot range when it is a leaf.
+  struct QueryNode {
+    double lo[3][2], hi[3][2];  ///< [axis][child]
+    int32_t child[2] = {-1, -1};
+    int32_t begin = 0, end = 0;
+  };
   TriangleBvh bvh_;
+  std::vector<QueryNode> qnodes_;            ///< one per bvh_.nodes entry
+  std::vector<std::array<double, 4>> plane_;  ///< per slot: unit normal and offset (zero when degenerate)
   std::vector<int32_t> slot_of_face_;  ///< inverse of bvh_.face
 };
 

@@ -60,6 +60,8 @@ struct Cell {
   openvdb::Coord origin;
   int32_t size;
   int32_t face;  ///< closest face of the enclosing coarse cell's centre (a hint for exact queries)
+  Eigen::Vector3f centre;  ///< centre of the enclosing coarse cell (object units)
+  float centre_u;          ///< exact unsigned distance at `centre` (bounds the cell's distances: 1-Lipschitz)
 };
 
 constexpr int32_t kCoarse = 4;  ///< coarse cell: 4^3 voxels (exact distance at its centre)
@@ -122,10 +124,12 @@ std::array<std::vector<Cell>, 4> candidate_cells(const Mesh& mesh, const MeshDis
             return;
           }
           const double d = cp.distance;
+          const Eigen::Vector3f cf = centre.cast<float>();
+          const auto cu = static_cast<float>(d);
           if (d > r) {  // no surface inside: one sign, that of any of its voxels
             const float g = acc.getValue(o);
             const double s = g < 0 ? -1.0 : 1.0;
-            add(out, {o, size, cp.face}, s > 0 ? d - r : -(d + r), s > 0 ? d + r : -(d - r));
+            add(out, {o, size, cp.face, cf, cu}, s > 0 ? d - r : -(d + r), s > 0 ? d + r : -(d - r));
             return;
           }
           for (int32_t x = 0; x < size; x += kFine)
@@ -147,7 +151,7 @@ std::array<std::vector<Cell>, 4> candidate_cells(const Mesh& mesh, const MeshDis
                   near = near || u <= half_voxel_diag + slack;
                 }
                 const double a = std::max(0.0, umin - half_voxel_diag), b = std::min(umax + half_voxel_diag, d + r);
-                const Cell cell{so, kFine, cp.face};
+                const Cell cell{so, kFine, cp.face, cf, cu};
                 if (near || (pos && neg)) add(out, cell, -b, b);
                 else if (pos) add(out, cell, a, b);
                 else add(out, cell, -b, -a);
@@ -198,22 +202,65 @@ MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSetti
 
   std::array<std::vector<Candidate>, 4> accepted;
   std::array<long, 4> want = rep.bin_quota;
-  std::array<long, 4> tried{};
+  std::array<long, 4> tried{}, evaluated{};
   std::array<uint64_t, 4> next_batch{};
   std::array<bool, 4> exhausted{};
   constexpr int kChunk = 256, kChunks = 32;
+  // Candidates whose distance is known from the grid to miss the bin are dropped before the exact query. The
+  // unsigned distance is 1-Lipschitz: each of the 8 lattice voxels around p bounds it by its stored |value|
+  // (exact in the band, at least the band's width beyond it) +- its distance to p. The sign is that of the
+  // nearest voxel when p is farther from that voxel than the surface can be: for pseudo-normal signs when p
+  // lies in the surface-free ball around the voxel; for winding-number signs when ExactSigned itself takes the
+  // voxel's sign (u > 0.9 voxel). Dropping only skips queries: every stored sample is still exact.
+  const double slack = 1e-3 * h;
+  const double sign_margin = normals ? 0.0 : 0.9 * h;
+  auto may_fall_in = [&](const Vec3& p, const Cell& cell, auto& acc, double lo, double hi) {
+    const Vec3 ip = p / h + Vec3(off.x(), off.y(), off.z());
+    const openvdb::Coord base(static_cast<int32_t>(std::floor(ip.x())), static_cast<int32_t>(std::floor(ip.y())),
+                              static_cast<int32_t>(std::floor(ip.z())));
+    double ulo = 0, uhi = 1e300, nearest_r = 1e300, nearest_g = 0;
+    for (int c = 0; c < 8; ++c) {
+      const openvdb::Coord v = base.offsetBy(c & 4 ? 1 : 0, c & 2 ? 1 : 0, c & 1 ? 1 : 0);
+      float g = 0;
+      const bool active = acc.probeValue(v, g);
+      const double r = h * (ip - Vec3(v.x(), v.y(), v.z())).norm();
+      const double u = std::abs(static_cast<double>(g));
+      ulo = std::max(ulo, u - r);
+      if (active) uhi = std::min(uhi, u + r);
+      if (r < nearest_r) nearest_r = r, nearest_g = g;
+    }
+    const double rc = (p - cell.centre.cast<double>()).norm();
+    ulo = std::max(ulo, cell.centre_u - rc);
+    uhi = std::min(uhi, cell.centre_u + rc);
+    ulo = std::max(0.0, ulo - slack);
+    uhi += slack;
+    const auto overlaps = [&](double a, double b) { return b >= lo && a <= hi; };
+    if (std::abs(nearest_g) - nearest_r > sign_margin + slack)
+      return nearest_g < 0 ? overlaps(-uhi, -ulo) : overlaps(ulo, uhi);
+    return overlaps(-uhi, -ulo) || overlaps(ulo, uhi);
+  };
 
   auto fill_bin = [&](int b) {
     const long cap = s.max_candidates_per_bin > 0 ? s.max_candidates_per_bin : 64 * std::max(want[b], 1024L);
     if (cells[b].empty()) exhausted[b] = true;
     while (!exhausted[b] && static_cast<long>(accepted[b].size()) < want[b]) {
+      // Batch size: a full batch first, then what the bin's acceptance so far says is still needed (+10%), so
+      // that the last batch does not overshoot by thousands of exact queries. Deterministic (counts only).
+      int per_chunk = kChunk;
+      const long missing = want[b] - static_cast<long>(accepted[b].size());
+      if (tried[b] > 0 && !accepted[b].empty()) {
+        const double rate = static_cast<double>(accepted[b].size()) / static_cast<double>(tried[b]);
+        const double need = 1.1 * static_cast<double>(missing) / rate / kChunks + 1.0;
+        per_chunk = static_cast<int>(std::clamp(std::ceil(need), 4.0, static_cast<double>(kChunk)));
+      }
       std::vector<std::vector<Candidate>> chunk_out(kChunks);
+      std::vector<long> chunk_evaluated(kChunks, 0);
       const uint64_t batch = next_batch[b]++;
       tbb::parallel_for(0, kChunks, [&](int c) {
         Rng rng = Rng::derived(s.seed, (static_cast<uint64_t>(b + 1) << 48) + batch * kChunks + c);
         auto acc = grid.getConstAccessor();
         const double lo = s.edges[b] + s.offset, hi = s.edges[b + 1] + s.offset;
-        for (int k = 0; k < kChunk; ++k) {
+        for (int k = 0; k < per_chunk; ++k) {
           const auto pick = static_cast<int64_t>(rng.below(static_cast<uint64_t>(cum[b].back())));
           const Cell& cell =
               cells[b][static_cast<size_t>(std::upper_bound(cum[b].begin(), cum[b].end(), pick) - cum[b].begin())];
@@ -223,14 +270,17 @@ MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSetti
               static_cast<float>((cell.origin.y() - off.y() - 0.5 + side * rng.uniform()) * h),
               static_cast<float>((cell.origin.z() - off.z() - 0.5 + side * rng.uniform()) * h));
           const Vec3 p = pf.cast<double>();
+          if (!may_fall_in(p, cell, acc, lo, hi)) continue;
+          ++chunk_evaluated[c];
           const double v = exact(p, acc, reach * 1.001 + 1e-9, cell.face);
           if (!std::isfinite(v)) continue;
           const bool last = b == 3;
           if (v >= lo && (v < hi || (last && v <= hi))) chunk_out[c].push_back({pf, static_cast<float>(v)});
         }
       });
-      tried[b] += static_cast<long>(kChunk) * kChunks;
+      tried[b] += static_cast<long>(per_chunk) * kChunks;
       for (int c = 0; c < kChunks; ++c) {
+        evaluated[b] += chunk_evaluated[c];
         for (const Candidate& cand : chunk_out[c])
           if (static_cast<long>(accepted[b].size()) < want[b]) accepted[b].push_back(cand);
       }
@@ -275,7 +325,7 @@ MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSetti
   for (int b = 0; b < 4; ++b) {
     rep.bin_counts[b] = static_cast<long>(accepted[b].size());
     total += rep.bin_counts[b];
-    rep.candidates += tried[b];
+    rep.candidates += evaluated[b];
   }
   MatrixXfR out(total, 4);
   Eigen::Index row = 0;
