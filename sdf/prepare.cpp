@@ -1,6 +1,7 @@
 #include "sdf/prepare.h"
 
 #include "core/error.h"
+#include "sdf/mesh_queries.h"
 #include "sdf/normalize.h"
 #include "sdf/orientation.h"
 #include "sdf/sparse_sdf_vdb.h"
@@ -95,21 +96,18 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
   report(0.1);
 
   // One sign method for the grid and the samples (pseudo-normals for closed one-part meshes, else winding).
-  const SignMethod sign = resolve_sign_method(object, settings.grid.sign, settings.grid.voxel_size);
-  SparseSdfSettings grid_settings = settings.grid;
-  grid_settings.orient_faces = false;  // done above, shared with the samples
-  grid_settings.sign = sign;
+  // The query structures (BVH, pseudo-normals or winding numbers) are built once for the grid and the samples.
+  const MeshQueries queries(object, settings.grid.sign, settings.grid.voxel_size, settings.grid.winding_beta);
+  const SignMethod sign = queries.sign();
   st.sign = sign;
-  SampleSettings sample_settings = settings.samples;
-  sample_settings.sign = sign == SignMethod::None ? SignMethod::WindingNumber : sign;
-  const SparseSdf sdf = SparseSdf::from_mesh(object, grid_settings, &st.grid,
+  const SparseSdf sdf = SparseSdf::from_mesh(queries, settings.grid, &st.grid,
                                              [&](double f) { return !progress || progress(0.1 + 0.6 * f); });
   st.active_voxels = sdf.active_voxel_count();
   st.grid_bytes = sdf.memory_bytes();
   lap(st.seconds_mesh);  // sign-method choice counted with the mesh work; the grid's own stages are in st.grid
   st.seconds_mesh -= st.grid.seconds_setup + st.grid.seconds_topology + st.grid.seconds_exact + st.grid.seconds_sign;
   report(0.7);
-  const MatrixXfR samples = disn_samples(object, sdf, sample_settings, &st.samples);
+  const MatrixXfR samples = disn_samples(queries, sdf, settings.samples, &st.samples);
   lap(st.seconds_samples);
   report(0.85);
   const bool use_input = settings.gt == GtSource::Input || (settings.gt == GtSource::Auto && st.closed_input);

@@ -88,7 +88,11 @@ bool pseudo_normal_sign_applies(const Mesh& mesh) {
 
 bool pseudo_normal_agrees_with_winding(const Mesh& mesh, const MeshDistance& dist, const PseudoNormals& normals,
                                        double spacing, int count) {
-  const WindingNumber wn(mesh);
+  return pseudo_normal_agrees_with_winding(mesh, dist, normals, spacing, WindingNumber(mesh), count);
+}
+
+bool pseudo_normal_agrees_with_winding(const Mesh& mesh, const MeshDistance& dist, const PseudoNormals& normals,
+                                       double spacing, const WindingNumber& wn, int count) {
   Rng rng(0x70736e);
   std::vector<double> cdf(static_cast<size_t>(mesh.F.rows()));
   double total = 0;

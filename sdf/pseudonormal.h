@@ -43,5 +43,9 @@ bool pseudo_normal_sign_applies(const Mesh& mesh);
 /// they all agree.
 bool pseudo_normal_agrees_with_winding(const Mesh& mesh, const MeshDistance& dist, const PseudoNormals& normals,
                                        double spacing, int count = 256);
+class WindingNumber;
+/// Same, with the mesh's winding-number hierarchy already built.
+bool pseudo_normal_agrees_with_winding(const Mesh& mesh, const MeshDistance& dist, const PseudoNormals& normals,
+                                       double spacing, const WindingNumber& wn, int count = 256);
 
 }  // namespace sdfkit

@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "core/random.h"
 #include "sdf/distance.h"
+#include "sdf/mesh_queries.h"
 #include "sdf/pseudonormal.h"
 #include "sdf/sparse_sdf_vdb.h"
 #include "sdf/winding.h"
@@ -168,21 +169,26 @@ std::array<std::vector<Cell>, 4> candidate_cells(const Mesh& mesh, const MeshDis
 }  // namespace
 
 MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSettings& s, SampleReport* report) {
+  require(!mesh.empty(), "samples: empty mesh");
+  return disn_samples(MeshQueries(mesh, s.sign, sdf.voxel_size(), s.winding_beta), sdf, s, report);
+}
+
+MatrixXfR disn_samples(const MeshQueries& queries, const SparseSdf& sdf, const SampleSettings& s,
+                       SampleReport* report) {
   require(s.count >= 0, "samples: count must be >= 0");
   require(s.uniform_share >= 0 && s.uniform_share <= 1, "samples: uniform share must be in [0, 1]");
   for (int b = 0; b < 4; ++b) require(s.edges[b] < s.edges[b + 1], "samples: bin edges must increase");
+  const Mesh& mesh = queries.mesh();
   require(!mesh.empty(), "samples: empty mesh");
   const openvdb::FloatGrid& grid = *vdb_grid(sdf);
   const double h = sdf.voxel_size();
   const double reach = std::max(std::abs(s.edges[0] + s.offset), std::abs(s.edges[4] + s.offset));
 
-  const MeshDistance dist(mesh);
-  const SignMethod method = resolve_sign_method(mesh, s.sign, h);
-  std::optional<WindingNumber> wn;
-  std::optional<PseudoNormals> normals;
-  if (method == SignMethod::PseudoNormal) normals.emplace(mesh);
-  else wn.emplace(mesh, s.winding_beta);
-  const ExactSigned exact{dist, wn ? &*wn : nullptr, normals ? &*normals : nullptr, grid, h, grid_index_offset(grid)};
+  const MeshDistance& dist = queries.distance();
+  const SignMethod method = queries.sign();
+  const PseudoNormals* normals = queries.pseudo_normals();
+  const WindingNumber* wn = normals ? nullptr : &queries.winding();
+  const ExactSigned exact{dist, wn, normals, grid, h, grid_index_offset(grid)};
   const openvdb::Coord off = exact.offset;
 
   SampleReport rep;

@@ -48,5 +48,9 @@ struct SampleReport {
 /// point. Deterministic for a seed whatever the thread count. Throws InvalidInput for bad settings.
 MatrixXfR disn_samples(const Mesh& mesh, const SparseSdf& sdf, const SampleSettings& settings,
                        SampleReport* report = nullptr);
+/// Same, with the mesh's query structures already built (sdf/mesh_queries.h, shared with the grid): the sign
+/// method is the one `queries` resolved (None: winding numbers), settings.sign is not used.
+MatrixXfR disn_samples(const MeshQueries& queries, const SparseSdf& sdf, const SampleSettings& settings,
+                       SampleReport* report = nullptr);
 
 }  // namespace sdfkit

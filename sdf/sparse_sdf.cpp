@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "sdf/band_triangle.h"
 #include "sdf/distance.h"
+#include "sdf/mesh_queries.h"
 #include "sdf/orientation.h"
 #include "sdf/pseudonormal.h"
 #include "sdf/sparse_sdf_vdb.h"
@@ -142,10 +143,7 @@ SignMethod resolve_sign_method(const Mesh& mesh, SignMethod requested, double sp
   if (requested != SignMethod::Auto && requested != SignMethod::PseudoNormal) return requested;
   if (!pseudo_normal_sign_applies(mesh)) return SignMethod::WindingNumber;
   if (requested == SignMethod::PseudoNormal) return requested;  // explicit: no agreement test
-  const MeshDistance dist(mesh);
-  const PseudoNormals normals(mesh);
-  return pseudo_normal_agrees_with_winding(mesh, dist, normals, spacing) ? SignMethod::PseudoNormal
-                                                                         : SignMethod::WindingNumber;
+  return MeshQueries(mesh, requested, spacing).sign();
 }
 
 openvdb::Coord grid_index_offset(const FloatGrid& grid) {
@@ -180,6 +178,30 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
   require(s.voxel_size > 0 && std::isfinite(s.voxel_size), "sparse SDF: voxel size must be positive");
   require(s.band == 0 || (s.band >= s.voxel_size && std::isfinite(s.band)),
           "sparse SDF: band must be 0 (3 voxels) or at least one voxel wide");
+  const auto t0 = std::chrono::steady_clock::now();
+  Mesh mesh = input;
+  long flipped = 0;
+  if (s.orient_faces && s.sign != SignMethod::None) {
+    OrientationReport orep;
+    mesh = orient_consistently(input, &orep);
+    flipped = orep.flipped_faces;
+  }
+  const MeshQueries queries(mesh, s.sign, s.voxel_size, s.winding_beta);
+  const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  SparseSdf out = from_mesh(queries, s, stats, progress_fn);
+  if (stats) {
+    stats->flipped_faces = flipped;
+    stats->seconds_setup += setup;
+  }
+  return out;
+}
+
+SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettings& s, SparseSdfStats* stats,
+                               const ProgressFn& progress_fn) {
+  ensure_openvdb_initialized();
+  require(s.voxel_size > 0 && std::isfinite(s.voxel_size), "sparse SDF: voxel size must be positive");
+  require(s.band == 0 || (s.band >= s.voxel_size && std::isfinite(s.band)),
+          "sparse SDF: band must be 0 (3 voxels) or at least one voxel wide");
   const Progress progress{progress_fn};
   SparseSdfStats st;
   auto clock = std::chrono::steady_clock::now();
@@ -188,14 +210,9 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
     out += std::chrono::duration<double>(now - clock).count();
     clock = now;
   };
-  Mesh mesh = input;
-  if (s.orient_faces && s.sign != SignMethod::None) {
-    OrientationReport orep;
-    mesh = orient_consistently(input, &orep);
-    st.flipped_faces = orep.flipped_faces;
-  }
+  const Mesh& mesh = queries.mesh();
   const double h = s.voxel_size;
-  const SignMethod method = resolve_sign_method(mesh, s.sign, h);
+  const SignMethod method = queries.sign();
   st.sign = method;
   lap(st.seconds_setup);
   progress(0.05);
@@ -213,7 +230,7 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
   grid->setTransform(xform);
   grid->setName("sdf");
   FloatTree& tree = grid->tree();
-  const MeshDistance exact(mesh);
+  const MeshDistance& exact = queries.distance();
   {
     constexpr int32_t D = LeafT::DIM;
     const auto nf = static_cast<size_t>(mesh.F.rows());
@@ -315,10 +332,8 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
 
   if (method != SignMethod::None) {
     // Inside measure: the winding number, or 1/0 from the pseudo-normal at the closest feature (closed meshes).
-    std::optional<WindingNumber> winding;
-    std::optional<PseudoNormals> normals;
-    if (method == SignMethod::PseudoNormal) normals.emplace(mesh);
-    else winding.emplace(mesh, s.winding_beta);
+    const PseudoNormals* normals = queries.pseudo_normals();
+    const WindingNumber* winding = normals ? nullptr : &queries.winding();
     const auto wn = [&](const Vec3& p) -> double {
       if (winding) return (*winding)(p);
       const ClosestPoint cp = exact.closest(p);

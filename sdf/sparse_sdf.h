@@ -11,6 +11,8 @@
 
 namespace sdfkit {
 
+class MeshQueries;
+
 /// How the sign of the distance is decided.
 enum class SignMethod {
   WindingNumber,  ///< inside iff generalized winding number > 0.5: open, soup, self-intersecting meshes
@@ -62,6 +64,11 @@ class SparseSdf {
   /// an empty mesh; `progress` may cancel (throws sdfkit::Error "cancelled").
   static SparseSdf from_mesh(const Mesh& mesh, const SparseSdfSettings& settings = {}, SparseSdfStats* stats = nullptr,
                              const ProgressFn& progress = {});
+  /// Same, from a mesh whose query structures are already built (sdf/mesh_queries.h): the sign method is the
+  /// one `queries` resolved, and the mesh is taken as it is (settings.sign and settings.orient_faces are not
+  /// used). Lets a caller share the structures with disn_samples.
+  static SparseSdf from_mesh(const MeshQueries& queries, const SparseSdfSettings& settings = {},
+                             SparseSdfStats* stats = nullptr, const ProgressFn& progress = {});
 
   /// Trilinear interpolation of the grid at p (object units). Beyond the band: +-background.
   [[nodiscard]] double value(const Vec3& p) const;

@@ -1,0 +1,31 @@
+#include "sdf/mesh_queries.h"
+
+#include "core/error.h"
+
+namespace sdfkit {
+
+MeshQueries::MeshQueries(const Mesh& mesh, SignMethod sign, double spacing, double winding_beta)
+    : mesh_(mesh), beta_(winding_beta) {
+  require(!mesh.empty() && mesh.F.rows() > 0, "mesh queries: empty mesh");
+  distance_ = std::make_unique<MeshDistance>(mesh_);
+  sign_ = sign;
+  if (sign == SignMethod::Auto || sign == SignMethod::PseudoNormal) {
+    sign_ = SignMethod::WindingNumber;
+    if (pseudo_normal_sign_applies(mesh_)) {
+      normals_.emplace(mesh_);
+      // Explicit PseudoNormal: no agreement test (as resolve_sign_method).
+      if (sign == SignMethod::PseudoNormal || pseudo_normal_agrees_with_winding(mesh_, *distance_, *normals_, spacing,
+                                                                                winding(), 256))
+        sign_ = SignMethod::PseudoNormal;
+      else
+        normals_.reset();
+    }
+  }
+}
+
+const WindingNumber& MeshQueries::winding() const {
+  std::call_once(*winding_once_, [this] { winding_.emplace(mesh_, beta_); });
+  return *winding_;
+}
+
+}  // namespace sdfkit
