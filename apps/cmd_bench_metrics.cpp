@@ -2,7 +2,8 @@
 //  - exact EMD on n points (default 2048): sparse auction + shortest augmenting paths + dense certificate vs the
 //    dense Hungarian method
 //    (and DISN's approximate matcher), on surface samples of two different shapes;
-//  - Chamfer distance on 100k vs 100k points: KD-tree evaluator, checked against brute force on a subset.
+//  - Chamfer distance on 100k vs 100k points: the grid evaluator (metrics/grid_nn.h) against the KD-tree evaluator
+//    it replaced, both checked against brute force on a subset.
 #include "apps/bench_util.h"
 #include "apps/command.h"
 #include "core/error.h"
@@ -11,9 +12,11 @@
 #include "core/random.h"
 #include "metrics/chamfer.h"
 #include "metrics/emd.h"
+#include "metrics/kdtree.h"
 #include "metrics/sampling.h"
 
 #include <tbb/global_control.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <chrono>
@@ -21,6 +24,7 @@
 #include <cstdio>
 #include <ctime>
 #include <iostream>
+#include <memory>
 
 namespace sdfkit::app {
 namespace {
@@ -102,15 +106,31 @@ std::function<int()> setup_bench_metrics(CLI::App& app) {
     {
       const Points a = sample_surface(pred, o->cd_points, Rng::derived(o->seed, 2).next()).points;
       const Points b = sample_surface(gt, o->cd_points, Rng::derived(o->seed, 3).next()).points;
-      std::vector<double> t_cd, c_cd;
+      std::vector<double> t_cd, c_cd, t_kd, c_kd;
       ChamferResult cd;
-      for (int r = 0; r < o->repeats; ++r) {
+      double kd_max_diff = 0;
+      for (int r = 0; r < o->repeats; ++r) {  // grid evaluator and KD-tree baseline alternate: same noise for both
         auto t0 = clock::now();
-        const double c0 = cpu_seconds();
+        double c0 = cpu_seconds();
         const PairEvaluator pair(a, b);
         cd = pair.chamfer();
         t_cd.push_back(seconds_since(t0));
         c_cd.push_back(cpu_seconds() - c0);
+        // Baseline: the previous evaluator, two nanoflann KD-trees built concurrently, queries in leaf order.
+        t0 = clock::now();
+        c0 = cpu_seconds();
+        std::unique_ptr<KdTree> ta, tb;
+        tbb::parallel_invoke([&] { ta = std::make_unique<KdTree>(a); }, [&] { tb = std::make_unique<KdTree>(b); });
+        const std::vector<uint32_t> oa = ta->leaf_order(), ob = tb->leaf_order();
+        Eigen::VectorXi ia, ib;
+        Eigen::VectorXd da, db;
+        tb->nearest(a, ia, da, &oa);
+        ta->nearest(b, ib, db, &ob);
+        const double kd_cd = da.mean() + db.mean();
+        t_kd.push_back(seconds_since(t0));
+        c_kd.push_back(cpu_seconds() - c0);
+        kd_max_diff = std::max({kd_max_diff, (da - pair.pred_to_gt_sq()).cwiseAbs().maxCoeff(),
+                                (db - pair.gt_to_pred_sq()).cwiseAbs().maxCoeff(), std::abs(kd_cd - cd.cd_squared())});
       }
       // Brute force on a subset of 1000 query points of each side; per-query time scaled to the full problem.
       const PairEvaluator pair(a, b);
@@ -129,6 +149,10 @@ std::function<int()> setup_bench_metrics(CLI::App& app) {
                                         tbb::global_control::max_allowed_parallelism))},
                         {"wall_seconds_median", median(t_cd)},
                         {"cpu_seconds_median", median(c_cd)},
+                        {"kdtree_wall_seconds_median", median(t_kd)},
+                        {"kdtree_cpu_seconds_median", median(c_kd)},
+                        {"kdtree_max_abs_difference", kd_max_diff},
+                        {"wall_speedup_vs_kdtree", median(t_kd) / median(t_cd)},
                         {"cd_squared", cd.cd_squared()},
                         {"cd_l1", cd.cd_l1()},
                         {"brute_force_subset", sub},
@@ -158,9 +182,13 @@ std::function<int()> setup_bench_metrics(CLI::App& app) {
       const Json& c = out["chamfer"];
       std::printf("Chamfer, %ld vs %ld points, %ld threads, median of %d:\n", o->cd_points, o->cd_points,
                   c["threads"].get<long>(), o->repeats);
-      std::printf("  KD-tree evaluator (build + both directions) %8.4f s wall, %8.4f s CPU  CD^2 %.6g  CD-L1 %.6g\n",
+      std::printf("  grid evaluator (build + both directions)    %8.4f s wall, %8.4f s CPU  CD^2 %.6g  CD-L1 %.6g\n",
                   c["wall_seconds_median"].get<double>(), c["cpu_seconds_median"].get<double>(),
                   c["cd_squared"].get<double>(), c["cd_l1"].get<double>());
+      std::printf("  KD-tree baseline (nanoflann, same run)      %8.4f s wall, %8.4f s CPU  max |difference| %.1e  "
+                  "wall speed-up of the grid %.2fx\n",
+                  c["kdtree_wall_seconds_median"].get<double>(), c["kdtree_cpu_seconds_median"].get<double>(),
+                  c["kdtree_max_abs_difference"].get<double>(), c["wall_speedup_vs_kdtree"].get<double>());
       std::printf("  brute force (%ld queries, extrapolated)  %8.2f s CPU  max |error| %.1e  CPU speed-up %.0fx\n",
                   c["brute_force_subset"].get<long>(), c["brute_force_cpu_seconds_extrapolated"].get<double>(),
                   c["brute_force_max_abs_error"].get<double>(), c["cpu_speedup_vs_brute_force"].get<double>());

@@ -16,11 +16,11 @@ double f_from_pr(double precision, double recall) {
 PairEvaluator::PairEvaluator(const Points& pred, const Points& gt) {
   require_finite_points(pred, "prediction");
   require_finite_points(gt, "ground truth");
-  tbb::parallel_invoke([&] { pred_ = std::make_unique<KdTree>(pred, "prediction"); },
-                       [&] { gt_ = std::make_unique<KdTree>(gt, "ground truth"); });
-  const std::vector<uint32_t> pred_order = pred_->leaf_order(), gt_order = gt_->leaf_order();
-  gt_->nearest(pred_->points(), p2g_index_, p2g_sq_, &pred_order);
-  pred_->nearest(gt_->points(), g2p_index_, g2p_sq_, &gt_order);
+  std::unique_ptr<NearestGrid> pred_grid, gt_grid;
+  tbb::parallel_invoke([&] { pred_grid = std::make_unique<NearestGrid>(pred, "prediction"); },
+                       [&] { gt_grid = std::make_unique<NearestGrid>(gt, "ground truth"); });
+  gt_grid->nearest(pred, p2g_index_, p2g_sq_);
+  pred_grid->nearest(gt, g2p_index_, g2p_sq_);
 }
 
 ChamferResult PairEvaluator::chamfer() const {

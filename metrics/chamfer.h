@@ -1,5 +1,5 @@
 // Chamfer distances (squared and L1 variants), F-score at distance thresholds, and the evaluator that serves them
-// (and normal consistency, metrics/normals.h) from one pair of KD-trees built once.
+// (and normal consistency, metrics/normals.h) from one pair of nearest-neighbour grids built once.
 //
 // Conventions (docs/eval.md): "pred -> gt" distances are from each predicted point to its nearest ground-truth
 // point (accuracy / precision side), "gt -> pred" the reverse (completeness / recall side). Distances are
@@ -8,7 +8,7 @@
 #pragma once
 
 #include "core/types.h"
-#include "metrics/kdtree.h"
+#include "metrics/grid_nn.h"
 
 #include <memory>
 #include <vector>
@@ -40,14 +40,14 @@ struct FScore {
 /// F from precision and recall (0 when both are 0).
 double f_from_pr(double precision, double recall);
 
-/// Builds a KD-tree on each set once and finds nearest neighbours in both directions once; every metric of the
-/// pair is then read from those. Throws InvalidInput if a set is empty or holds a non-finite coordinate.
+/// Buckets each set once (metrics/grid_nn.h) and finds exact nearest neighbours in both directions once; every
+/// metric of the pair is then read from those. Throws InvalidInput if a set is empty or holds a non-finite coordinate.
 class PairEvaluator {
  public:
   PairEvaluator(const Points& pred, const Points& gt);
 
-  [[nodiscard]] const KdTree& pred_tree() const { return *pred_; }
-  [[nodiscard]] const KdTree& gt_tree() const { return *gt_; }
+  [[nodiscard]] Eigen::Index pred_size() const { return p2g_sq_.size(); }
+  [[nodiscard]] Eigen::Index gt_size() const { return g2p_sq_.size(); }
   /// For every predicted point, its nearest ground-truth point and the squared distance to it.
   [[nodiscard]] const Eigen::VectorXi& pred_to_gt_index() const { return p2g_index_; }
   [[nodiscard]] const Eigen::VectorXd& pred_to_gt_sq() const { return p2g_sq_; }
@@ -60,7 +60,6 @@ class PairEvaluator {
   [[nodiscard]] std::vector<FScore> fscores(const std::vector<double>& thresholds) const;
 
  private:
-  std::unique_ptr<KdTree> pred_, gt_;  // built concurrently
   Eigen::VectorXi p2g_index_, g2p_index_;
   Eigen::VectorXd p2g_sq_, g2p_sq_;
 };

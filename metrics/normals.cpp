@@ -23,8 +23,8 @@ Points unit_rows(const Points& n, Eigen::Index expected, const std::string& what
 }  // namespace
 
 NormalConsistency normal_consistency(const PairEvaluator& pair, const Points& pred_normals, const Points& gt_normals) {
-  const Points np = unit_rows(pred_normals, pair.pred_tree().size(), "prediction normals");
-  const Points ng = unit_rows(gt_normals, pair.gt_tree().size(), "ground-truth normals");
+  const Points np = unit_rows(pred_normals, pair.pred_size(), "prediction normals");
+  const Points ng = unit_rows(gt_normals, pair.gt_size(), "ground-truth normals");
   NormalConsistency r;
   const auto& p2g = pair.pred_to_gt_index();
   for (Eigen::Index i = 0; i < np.rows(); ++i) r.accuracy += std::abs(np.row(i).dot(ng.row(p2g(i))));
