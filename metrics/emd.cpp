@@ -8,9 +8,14 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#if defined(__x86_64__) || defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numeric>
 #include <tuple>
 
@@ -96,6 +101,113 @@ struct Sites {
 // `keep` of them, as (j, c_ij)). The n^2 pass runs in float (vectorised) with a rigorous bound E on the error of
 // each c_ij + p_j; every pair the float values cannot rule out (as the row minimum or as a violation) is
 // re-evaluated in double, so slacks and violations are those of the double computation.
+// w[j] = |b_j - a| + price[j] in float for every j < n, and the minimum of w. The same IEEE operations in the
+// same order in every version (no fused multiply-add), so all versions give the same bits; the AVX2 version is
+// picked at run time on CPUs that have it (the dense check is most of the exact solver's time).
+float row_costs_generic(const float* bx, const float* by, const float* bz, const float* price, int n, float ax,
+                        float ay, float az, float* w) {
+  float best = std::numeric_limits<float>::infinity();
+  int j = 0;
+#if defined(__SSE2__)
+  const __m128 vx = _mm_set1_ps(ax), vy = _mm_set1_ps(ay), vz = _mm_set1_ps(az);
+  __m128 vbest = _mm_set1_ps(best);
+  for (; j + 4 <= n; j += 4) {
+    const __m128 dx = _mm_sub_ps(_mm_loadu_ps(bx + j), vx), dy = _mm_sub_ps(_mm_loadu_ps(by + j), vy),
+                 dz = _mm_sub_ps(_mm_loadu_ps(bz + j), vz);
+    const __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+    const __m128 c = _mm_add_ps(_mm_sqrt_ps(d2), _mm_loadu_ps(price + j));
+    _mm_storeu_ps(w + j, c);
+    vbest = _mm_min_ps(vbest, c);
+  }
+  alignas(16) float lanes[4];
+  _mm_store_ps(lanes, vbest);
+  for (float v : lanes) best = std::min(best, v);
+#endif
+  for (; j < n; ++j) {
+    const float dx = bx[j] - ax, dy = by[j] - ay, dz = bz[j] - az;
+    w[j] = std::sqrt((dx * dx + dy * dy) + dz * dz) + price[j];
+    best = std::min(best, w[j]);
+  }
+  return best;
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target("avx2"))) float row_costs_avx2(const float* bx, const float* by, const float* bz,
+                                                     const float* price, int n, float ax, float ay, float az,
+                                                     float* w) {
+  float best = std::numeric_limits<float>::infinity();
+  const __m256 vx = _mm256_set1_ps(ax), vy = _mm256_set1_ps(ay), vz = _mm256_set1_ps(az);
+  __m256 vbest = _mm256_set1_ps(best);
+  int j = 0;
+  for (; j + 8 <= n; j += 8) {
+    const __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(bx + j), vx), dy = _mm256_sub_ps(_mm256_loadu_ps(by + j), vy),
+                 dz = _mm256_sub_ps(_mm256_loadu_ps(bz + j), vz);
+    const __m256 d2 =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+    const __m256 c = _mm256_add_ps(_mm256_sqrt_ps(d2), _mm256_loadu_ps(price + j));
+    _mm256_storeu_ps(w + j, c);
+    vbest = _mm256_min_ps(vbest, c);
+  }
+  alignas(32) float lanes[8];
+  _mm256_store_ps(lanes, vbest);
+  for (float v : lanes) best = std::min(best, v);
+  if (j < n) best = std::min(best, row_costs_generic(bx + j, by + j, bz + j, price + j, n - j, ax, ay, az, w + j));
+  return best;
+}
+#endif
+
+using RowCosts = float (*)(const float*, const float*, const float*, const float*, int, float, float, float, float*);
+RowCosts pick_row_costs() {
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (__builtin_cpu_supports("avx2")) return row_costs_avx2;
+#endif
+  return row_costs_generic;
+}
+const RowCosts row_costs_f = pick_row_costs();
+
+// Appends to `out` every j < n with w[j] <= limit, in increasing order. Nearly all entries exceed the limit, so
+// 4 (SSE2, part of every x86-64 CPU) or 8 (AVX2) are compared and skipped together.
+void collect_at_most_generic(const float* w, int n, float limit, std::vector<int>& out) {
+  int j = 0;
+#if defined(__SSE2__)
+  const __m128 lim = _mm_set1_ps(limit);
+  for (; j + 4 <= n; j += 4) {
+    auto mask = static_cast<unsigned>(_mm_movemask_ps(_mm_cmple_ps(_mm_loadu_ps(w + j), lim)));
+    while (mask != 0) {
+      out.push_back(j + __builtin_ctz(mask));
+      mask &= mask - 1;
+    }
+  }
+#endif
+  for (; j < n; ++j)
+    if (w[j] <= limit) out.push_back(j);
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target("avx2"))) void collect_at_most_avx2(const float* w, int n, float limit, std::vector<int>& out) {
+  const __m256 lim = _mm256_set1_ps(limit);
+  int j = 0;
+  for (; j + 8 <= n; j += 8) {
+    auto mask = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(w + j), lim, _CMP_LE_OQ)));
+    while (mask != 0) {
+      out.push_back(j + __builtin_ctz(mask));
+      mask &= mask - 1;
+    }
+  }
+  for (; j < n; ++j)
+    if (w[j] <= limit) out.push_back(j);
+}
+#endif
+
+using CollectAtMost = void (*)(const float*, int, float, std::vector<int>&);
+CollectAtMost pick_collect_at_most() {
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (__builtin_cpu_supports("avx2")) return collect_at_most_avx2;
+#endif
+  return collect_at_most_generic;
+}
+const CollectAtMost collect_at_most = pick_collect_at_most();
+
 class DenseCheck {
  public:
   // Float coordinates are taken relative to `centre` (the middle of both sets' box), so their rounding is
@@ -139,14 +251,12 @@ class DenseCheck {
         checked_price_[i] = p[s[i]];
         const auto ax = static_cast<float>(a_(i, 0) - centre_.x()), ay = static_cast<float>(a_(i, 1) - centre_.y()),
                    az = static_cast<float>(a_(i, 2) - centre_.z());
-        w = ((bx_ - ax).square() + (by_ - ay).square() + (bz_ - az).square()).sqrt() + price_f_;
-        const double best_f = w.minCoeff();
+        const double best_f = row_costs_f(bx_.data(), by_.data(), bz_.data(), price_f_.data(), n_, ax, ay, az, w.data());
         const double mine = distance(a_, i, b_, s[i]) + (p[s[i]] - p0);
         // Candidates: pairs that may be the row minimum, or may undercut mine by more than the threshold.
         const auto limit = static_cast<float>(std::max(best_f + 2 * E, mine - threshold + E));
         cand.clear();
-        for (int j = 0; j < n_; ++j)
-          if (w[j] <= limit) cand.push_back(j);
+        collect_at_most(w.data(), n_, limit, cand);
         double best = mine;
         v.clear();
         for (int j : cand) {
