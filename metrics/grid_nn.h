@@ -64,8 +64,8 @@ class NearestGrid {
   double origin_[3] = {0, 0, 0};
   double h_ = 1, inv_h_ = 1, slack_ = 0;
   int dims_[3] = {1, 1, 1};
-  std::vector<uint32_t> cell_start_;  // cells + 1 offsets into xyz_/order_
-  std::vector<double> xyz_;           // points sorted by cell, x y z interleaved
+  std::vector<uint32_t> cell_start_;  // cells + 1 offsets into x_, y_, z_, order_
+  std::vector<double> x_, y_, z_;     // points sorted by cell
   std::vector<uint32_t> order_;       // original index of each sorted point
   std::vector<CellOffset> offsets_;   // block_offsets(), local copy
   mutable std::once_flag tree_once_;
