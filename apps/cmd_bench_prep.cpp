@@ -213,10 +213,10 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
                   st.sign == SignMethod::PseudoNormal ? "pn" : "wn", m1, median(c1), m2, median(c2),
                   st.active_voxels, pct, st.grid_bytes / 1e6, lattice * 4e-6, dense_s, dense_cpu, mean_err, max_err,
                   100.0 * sign_ok / std::max<double>(1, static_cast<double>(P.rows())));
-      std::printf("  stages (wall s, last 1-thread run): mesh %.3f | grid: setup %.3f band %.3f insert %.3f sign %.3f | "
+      std::printf("  stages (wall s, last 1-thread run): mesh %.3f | grid: setup %.3f band %.3f insert %.3f sign %.3f (%ld probes) | "
                   "samples %.3f (%ld candidates) | gt %.3f | files %.3f\n",
                   st.seconds_mesh, st.grid.seconds_setup, st.grid.seconds_topology, st.grid.seconds_exact,
-                  st.grid.seconds_sign, st.seconds_samples, st.samples.candidates, st.seconds_gt, st.seconds_files);
+                  st.grid.seconds_sign, st.grid.winding_evaluations, st.seconds_samples, st.samples.candidates, st.seconds_gt, st.seconds_files);
       std::fflush(stdout);
       results.push_back({{"shape", sh.name},
                          {"triangles", sh.mesh.F.rows()},

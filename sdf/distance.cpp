@@ -118,6 +118,72 @@ ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound, int32_t hi
   return best;
 }
 
+bool MeshDistance::segment_may_cross(const Vec3& a, const Vec3& b) const {
+  const Vec3 d = b - a;
+  const double len = d.norm();
+  if (!(len > 0)) return closest(a, 1e-12).face >= 0;
+  // Tolerances relative to the segment and the coordinates' magnitude: generous against round-off.
+  const double scale = std::max({1.0, a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff()});
+  const double margin = 1e-9 * scale;
+  int32_t stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const auto& node = bvh_.nodes[static_cast<size_t>(stack[--top])];
+    // Slab test of the segment against the node's box grown by `margin`.
+    double t0 = 0, t1 = 1;
+    bool miss = false;
+    for (int k = 0; k < 3 && !miss; ++k) {
+      const double lo = node.box.min()[k] - margin, hi = node.box.max()[k] + margin;
+      if (std::abs(d[k]) < 1e-300) {
+        miss = a[k] < lo || a[k] > hi;
+        continue;
+      }
+      double ta = (lo - a[k]) / d[k], tb = (hi - a[k]) / d[k];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+      miss = t0 > t1;
+    }
+    if (miss) continue;
+    if (!node.leaf()) {
+      stack[top++] = node.left;
+      stack[top++] = node.right;
+      continue;
+    }
+    for (int32_t s = node.begin; s < node.end; ++s) {
+      const auto& t = bvh_.corners[static_cast<size_t>(s)];
+      // Moller-Trumbore with a tolerance on the barycentrics and on the segment parameter.
+      const Vec3 e1 = t[1] - t[0], e2 = t[2] - t[0];
+      const Vec3 pv = d.cross(e2);
+      const double det = e1.dot(pv);
+      const double area = e1.cross(e2).norm();
+      if (std::abs(det) <= 1e-9 * len * area) {
+        // Parallel (or degenerate): a hit when the segment comes within round-off of the triangle.
+        const Vec3 q = closest_point_on_triangle(a, t[0], t[1], t[2]);
+        const double dist_a = (q - a).squaredNorm();
+        if (dist_a <= len * len * 4 + margin) {
+          // Close enough to matter: be conservative.
+          return true;
+        }
+        continue;
+      }
+      const double inv = 1.0 / det;
+      const Vec3 tv = a - t[0];
+      const double u = tv.dot(pv) * inv;
+      const double eps = 1e-7;
+      if (u < -eps || u > 1 + eps) continue;
+      const Vec3 qv = tv.cross(e1);
+      const double v = d.dot(qv) * inv;
+      if (v < -eps || u + v > 1 + eps) continue;
+      const double tt = e2.dot(qv) * inv;
+      if (tt < -eps || tt > 1 + eps) continue;
+      return true;
+    }
+  }
+  return false;
+}
+
 Eigen::VectorXd MeshDistance::query(const Points& P) const {
   Eigen::VectorXd d(P.rows());
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, P.rows(), 256), [&](const auto& r) {

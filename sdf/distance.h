@@ -26,6 +26,9 @@ class MeshDistance {
   /// between faces the reported face may differ).
   [[nodiscard]] ClosestPoint closest(const Vec3& p, double upper_bound, int32_t hint) const;
   [[nodiscard]] double operator()(const Vec3& p) const { return closest(p).distance; }
+  /// True when the segment [a, b] may touch a triangle: conservative (touching an edge or a vertex, or lying
+  /// within round-off of a triangle counts as a hit), so false means that no surface lies between a and b.
+  [[nodiscard]] bool segment_may_cross(const Vec3& a, const Vec3& b) const;
   /// Unsigned distances of every row of P, in parallel (TBB).
   [[nodiscard]] Eigen::VectorXd query(const Points& P) const;
 

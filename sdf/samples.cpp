@@ -44,12 +44,16 @@ struct ExactSigned {
     if (cp.face < 0) return std::numeric_limits<double>::quiet_NaN();
     const double u = cp.distance;
     if (normals) return normals->inside(p, cp) ? -u : u;
-    if (u > 0.9 * h) {
-      const openvdb::Coord c(static_cast<int>(std::lround(p.x() / h)) + offset.x(),
-                             static_cast<int>(std::lround(p.y() / h)) + offset.y(),
-                             static_cast<int>(std::lround(p.z() / h)) + offset.z());
-      const float v = acc.getValue(c);
-      if (v != 0.f) return v < 0 ? -u : u;
+    const openvdb::Coord c(static_cast<int>(std::lround(p.x() / h)) + offset.x(),
+                           static_cast<int>(std::lround(p.y() / h)) + offset.y(),
+                           static_cast<int>(std::lround(p.z() / h)) + offset.z());
+    const float v = acc.getValue(c);
+    if (v != 0.f) {
+      // No surface between p and its nearest voxel: when the ball of radius u around p holds the voxel, or
+      // when no triangle touches the segment between them (one BVH segment query instead of a winding number).
+      if (u > 0.9 * h) return v < 0 ? -u : u;
+      const Vec3 x((c.x() - offset.x()) * h, (c.y() - offset.y()) * h, (c.z() - offset.z()) * h);
+      if (!dist.segment_may_cross(p, x)) return v < 0 ? -u : u;
     }
     return (*wn)(p) > 0.5 ? -u : u;
   }

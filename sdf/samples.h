@@ -41,8 +41,10 @@ struct SampleReport {
 /// first (bin 0..3, in generation order), then the uniform share. Candidates come from cells that can hold
 /// each bin (exact distances at cell centres, the grid's band values near the surface), so the grid's band may
 /// be narrower than the bins. `sdf` is the grid built from the same mesh: with winding-number signs it gives
-/// the sign of points farther than 0.9 voxel from the surface (no surface lies between the point and its
-/// nearest voxel); closer points take the sign of their own winding number. With pseudo-normals (closed
+/// the sign of a point whose nearest voxel has no surface in between (the point is farther than 0.9 voxel
+/// from the surface, or no triangle touches the segment between them); other points take the sign of their
+/// own winding number. Candidates whose grid bounds miss the wanted bin are dropped before the exact query
+/// (SampleReport::candidates counts exact queries). With pseudo-normals (closed
 /// meshes) every sample takes the sign of its closest feature. `mesh` should be oriented consistently
 /// (sdf/orientation.h) as it was for the grid. The stored sdf is the exact distance of the float32-rounded
 /// point. Deterministic for a seed whatever the thread count. Throws InvalidInput for bad settings.

@@ -26,7 +26,10 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <numeric>
 #include <optional>
+#include <unordered_map>
+#include <utility>
 #include <unistd.h>
 
 namespace sdfkit {
@@ -346,39 +349,231 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
     // Two voxels a voxel apart whose distances sum to more than h cannot have a surface point between them.
     const float safe = static_cast<float>(h * 1.02);
     std::atomic<long> evaluations{0};
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 4), [&](const auto& range) {
-      UnionFind uf(LeafT::SIZE);
-      std::vector<int32_t> best(LeafT::SIZE);
-      std::vector<char> inside(LeafT::SIZE);
-      for (size_t li = range.begin(); li != range.end(); ++li) {
-        LeafT& leaf = *leaves[li];
-        for (size_t i = 0; i < LeafT::SIZE; ++i) uf.parent[i] = static_cast<int32_t>(i);
-        const float* v = leaf.buffer().data();
-        constexpr int32_t D = LeafT::DIM;
-        for (int32_t x = 0; x < D; ++x)
-          for (int32_t y = 0; y < D; ++y)
-            for (int32_t z = 0; z < D; ++z) {
-              const int32_t i = (x * D + y) * D + z;
-              if (z + 1 < D && v[i] + v[i + 1] > safe) uf.unite(i, i + 1);
-              if (y + 1 < D && v[i] + v[i + D] > safe) uf.unite(i, i + D);
-              if (x + 1 < D && v[i] + v[i + D * D] > safe) uf.unite(i, i + D * D);
-            }
-        // Preferred probe per component: the member farthest from the surface (most robust).
-        for (int32_t i = 0; i < static_cast<int32_t>(LeafT::SIZE); ++i) best[i] = -1;
-        for (int32_t i = 0; i < static_cast<int32_t>(LeafT::SIZE); ++i) {
-          const int32_t r = uf.find(i);
-          if (best[r] < 0 || v[i] > v[best[r]]) best[r] = i;
+    constexpr int32_t D = LeafT::DIM;
+    constexpr auto S = static_cast<int32_t>(LeafT::SIZE);
+    const size_t nl = leaves.size();
+    auto voxel_position = [&](const LeafT& leaf, int32_t i) {
+      const Coord c = leaf.origin() + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
+      return Vec3((c.x() - O) * h, (c.y() - O) * h, (c.z() - O) * h);
+    };
+    // The sign of every voxel of a set of leaves decided leaf by leaf: components of voxels with no surface
+    // between them inside the leaf, each probed (classify_components). Robust where the w = 0.5 set is not tied
+    // to the surface (open meshes), at the price of probes in every leaf.
+    std::vector<char> inside_all(nl * static_cast<size_t>(S), 0);
+    auto per_leaf = [&](const std::vector<int32_t>& which) {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, which.size(), 4), [&](const auto& range) {
+        UnionFind uf(LeafT::SIZE);
+        std::vector<int32_t> best(LeafT::SIZE);
+        std::vector<char> inside(LeafT::SIZE);
+        for (size_t wi = range.begin(); wi != range.end(); ++wi) {
+          const auto li = static_cast<size_t>(which[wi]);
+          const LeafT& leaf = *leaves[li];
+          for (size_t i = 0; i < LeafT::SIZE; ++i) uf.parent[i] = static_cast<int32_t>(i);
+          const float* v = leaf.buffer().data();
+          for (int32_t x = 0; x < D; ++x)
+            for (int32_t y = 0; y < D; ++y)
+              for (int32_t z = 0; z < D; ++z) {
+                const int32_t i = (x * D + y) * D + z;
+                if (z + 1 < D && v[i] + v[i + 1] > safe) uf.unite(i, i + 1);
+                if (y + 1 < D && v[i] + v[i + D] > safe) uf.unite(i, i + D);
+                if (x + 1 < D && v[i] + v[i + D * D] > safe) uf.unite(i, i + D * D);
+              }
+          // Preferred probe per component: the member farthest from the surface (most robust).
+          for (int32_t i = 0; i < S; ++i) best[i] = -1;
+          for (int32_t i = 0; i < S; ++i) {
+            const int32_t r = uf.find(i);
+            if (best[r] < 0 || v[i] > v[best[r]]) best[r] = i;
+          }
+          evaluations += classify_components(uf, S, best, [&](int32_t i) { return voxel_position(leaf, i); }, wn,
+                                             threshold, inside);
+          std::copy(inside.begin(), inside.end(), inside_all.begin() + static_cast<std::ptrdiff_t>(li * S));
         }
-        const Coord origin = leaf.origin();
-        auto position = [&](int32_t i) {
-          const Coord c = origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
-          return Vec3((c.x() - O) * h, (c.y() - O) * h, (c.z() - O) * h);
-        };
-        evaluations += classify_components(uf, static_cast<int32_t>(LeafT::SIZE), best, position, wn, threshold,
-                                           inside);
-        float* out = leaf.buffer().data();
-        for (size_t i = 0; i < LeafT::SIZE; ++i)
-          if (inside[i]) out[i] = -out[i];
+      });
+    };
+    // First across leaves: the same components over the whole band (voxel pairs across leaf faces joined by the
+    // same rule), a few probes per component. A component whose probes all agree clearly (|w - 0.5| >= 0.25)
+    // takes their verdict; the leaves of any other component are decided leaf by leaf as above. A closed
+    // shell's band then costs a handful of probes instead of a few per leaf.
+    {
+      std::vector<int32_t> parent(nl * static_cast<size_t>(S));
+      std::iota(parent.begin(), parent.end(), 0);
+      // Union by smaller root: a set's root is its smallest index whatever the order of the unions.
+      auto find = [&parent](int32_t x) {
+        while (parent[x] != x) x = parent[x] = parent[parent[x]];
+        return x;
+      };
+      auto unite = [&](int32_t a, int32_t b) {
+        a = find(a);
+        b = find(b);
+        if (a == b) return;
+        if (a < b) std::swap(a, b);
+        parent[a] = b;
+      };
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 8), [&](const auto& range) {
+        for (size_t li = range.begin(); li != range.end(); ++li) {
+          const float* v = leaves[li]->buffer().data();
+          const auto base = static_cast<int32_t>(li * S);
+          for (int32_t x = 0; x < D; ++x)
+            for (int32_t y = 0; y < D; ++y)
+              for (int32_t z = 0; z < D; ++z) {
+                const int32_t i = (x * D + y) * D + z;
+                if (z + 1 < D && v[i] + v[i + 1] > safe) unite(base + i, base + i + 1);
+                if (y + 1 < D && v[i] + v[i + D] > safe) unite(base + i, base + i + D);
+                if (x + 1 < D && v[i] + v[i + D * D] > safe) unite(base + i, base + i + D * D);
+              }
+        }
+      });
+      std::unordered_map<uint64_t, int32_t> leaf_at;
+      leaf_at.reserve(nl * 2);
+      auto key = [](const Coord& c) {
+        return (static_cast<uint64_t>(static_cast<uint32_t>(c.x()) >> 3) << 42) ^
+               (static_cast<uint64_t>(static_cast<uint32_t>(c.y()) >> 3) << 21) ^
+               static_cast<uint64_t>(static_cast<uint32_t>(c.z()) >> 3);
+      };
+      for (size_t li = 0; li < nl; ++li) leaf_at[key(leaves[li]->origin())] = static_cast<int32_t>(li);
+      for (size_t li = 0; li < nl; ++li) {
+        const float* v = leaves[li]->buffer().data();
+        for (int a = 0; a < 3; ++a) {
+          Coord no = leaves[li]->origin();
+          no[a] += D;
+          const auto it = leaf_at.find(key(no));
+          if (it == leaf_at.end() || leaves[static_cast<size_t>(it->second)]->origin() != no) continue;
+          const float* w = leaves[static_cast<size_t>(it->second)]->buffer().data();
+          const auto base = static_cast<int32_t>(li * S), nbase = it->second * S;
+          const int32_t stride = a == 0 ? D * D : a == 1 ? D : 1;
+          for (int32_t u = 0; u < D; ++u)
+            for (int32_t t = 0; t < D; ++t) {
+              // Voxel with coordinate a = D - 1 here, 0 in the neighbour; the other two coordinates (u, t).
+              const int32_t j = a == 0 ? u * D + t : a == 1 ? u * D * D + t : (u * D + t) * D;
+              const int32_t i = j + (D - 1) * stride;
+              if (v[i] + w[j] > safe) unite(base + i, nbase + j);
+            }
+        }
+      }
+      const auto n = static_cast<int32_t>(parent.size());
+      // Components in order of their smallest voxel index; members listed in index order.
+      std::vector<int32_t> comp(parent.size());
+      std::vector<int32_t> starts;
+      for (int32_t i = 0; i < n; ++i) {
+        const int32_t r = find(i);
+        if (r == i) {
+          comp[i] = static_cast<int32_t>(starts.size());
+          starts.push_back(0);
+        } else {
+          comp[i] = comp[r];
+        }
+        ++starts[comp[i]];
+      }
+      const auto nc = static_cast<int32_t>(starts.size());
+      {
+        int32_t total = 0;
+        for (auto& c : starts) total += std::exchange(c, total);
+        starts.push_back(total);
+      }
+      std::vector<int32_t> members(parent.size());
+      {
+        std::vector<int32_t> fill(starts.begin(), starts.end() - 1);
+        for (int32_t i = 0; i < n; ++i) members[fill[comp[i]]++] = i;
+      }
+      parent.clear();
+      parent.shrink_to_fit();
+      std::vector<char> undecided(static_cast<size_t>(nc), 0);
+      auto position = [&](int32_t g) { return voxel_position(*leaves[static_cast<size_t>(g / S)], g % S); };
+      auto value = [&](int32_t g) { return leaves[static_cast<size_t>(g / S)]->buffer().data()[g % S]; };
+      tbb::parallel_for(tbb::blocked_range<int32_t>(0, nc, 16), [&](const auto& range) {
+        long local = 0;
+        for (int32_t c = range.begin(); c != range.end(); ++c) {
+          const int32_t* m = members.data() + starts[c];
+          const int32_t count = starts[c + 1] - starts[c];
+          if (count <= 4) continue;  // below, once the large components are decided
+          int32_t far = m[0];
+          for (int32_t k = 1; k < count; ++k)
+            if (value(m[k]) > value(far)) far = m[k];
+          const int32_t probes[6] = {far, m[0], m[count / 4], m[count / 2], m[3 * count / 4], m[count - 1]};
+          bool agreed = true, verdict = false;
+          for (int k = 0; k < 6 && agreed; ++k) {
+            const double w = wn(position(probes[k]));
+            ++local;
+            const bool in = w > threshold;
+            if (std::abs(w - threshold) < 0.25 || (k > 0 && in != verdict)) agreed = false;
+            verdict = in;
+          }
+          if (!agreed) {
+            undecided[static_cast<size_t>(c)] = 1;
+            continue;
+          }
+          for (int32_t k = 0; k < count; ++k) inside_all[static_cast<size_t>(m[k])] = verdict;
+        }
+        evaluations += local;
+      });
+      // Small components (voxels within about half a voxel of the surface, cut off from their neighbours by the
+      // distance rule): with winding numbers, a member takes the sign of a neighbour voxel of a decided large
+      // component when no triangle lies on the segment between them (the grid's neighbour with the largest
+      // distance first); else, and always with pseudo-normals (whose probe is one closest-point query), its own
+      // probe.
+      auto decided = [&](int32_t g) {
+        const int32_t c = comp[static_cast<size_t>(g)];
+        return starts[c + 1] - starts[c] > 4 && !undecided[static_cast<size_t>(c)];
+      };
+      auto neighbour = [&](int32_t g, int a, int dir) -> int32_t {
+        const auto li = static_cast<size_t>(g / S);
+        const int32_t i = g % S;
+        Coord local = LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
+        local[a] += dir;
+        if (local[a] >= 0 && local[a] < D) return static_cast<int32_t>(li * S) + static_cast<int32_t>(LeafT::coordToOffset(local));
+        Coord no = leaves[li]->origin();
+        no[a] += dir * D;
+        const auto it = leaf_at.find(key(no));
+        if (it == leaf_at.end() || leaves[static_cast<size_t>(it->second)]->origin() != no) return -1;
+        local[a] = (local[a] + D) % D;
+        return it->second * S + static_cast<int32_t>(LeafT::coordToOffset(local));
+      };
+      tbb::parallel_for(tbb::blocked_range<int32_t>(0, nc, 64), [&](const auto& range) {
+        long local = 0;
+        for (int32_t c = range.begin(); c != range.end(); ++c) {
+          const int32_t count = starts[c + 1] - starts[c];
+          if (count > 4) continue;
+          for (int32_t k = starts[c]; k < starts[c + 1]; ++k) {
+            const int32_t g = members[static_cast<size_t>(k)];
+            const Vec3 p = position(g);
+            int32_t from = -1;
+            if (winding) {
+              std::array<std::pair<float, int32_t>, 6> cand;
+              int nc6 = 0;
+              for (int a = 0; a < 3; ++a)
+                for (int dir : {-1, 1}) {
+                  const int32_t j = neighbour(g, a, dir);
+                  if (j >= 0 && decided(j)) cand[static_cast<size_t>(nc6++)] = {-value(j), j};
+                }
+              std::sort(cand.begin(), cand.begin() + nc6);
+              for (int q = 0; q < nc6 && from < 0; ++q)
+                if (!exact.segment_may_cross(p, position(cand[static_cast<size_t>(q)].second)))
+                  from = cand[static_cast<size_t>(q)].second;
+            }
+            if (from >= 0) {
+              inside_all[static_cast<size_t>(g)] = inside_all[static_cast<size_t>(from)];
+            } else {
+              inside_all[static_cast<size_t>(g)] = wn(p) > threshold;
+              ++local;
+            }
+          }
+        }
+        evaluations += local;
+      });
+      std::vector<char> redo(nl, 0);
+      for (int32_t c = 0; c < nc; ++c)
+        if (undecided[static_cast<size_t>(c)])
+          for (int32_t k = starts[c]; k < starts[c + 1]; ++k) redo[static_cast<size_t>(members[k] / S)] = 1;
+      std::vector<int32_t> which;
+      for (size_t li = 0; li < nl; ++li)
+        if (redo[li]) which.push_back(static_cast<int32_t>(li));
+      per_leaf(which);
+    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 16), [&](const auto& range) {
+      for (size_t li = range.begin(); li != range.end(); ++li) {
+        float* out = leaves[li]->buffer().data();
+        for (int32_t i = 0; i < S; ++i)
+          if (inside_all[li * S + static_cast<size_t>(i)]) out[i] = -out[i];
       }
     });
     st.band_voxels = static_cast<long>(tree.activeVoxelCount());
@@ -389,7 +584,6 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
     openvdb::CoordBBox lb;
     for (const LeafT* leaf : leaves) lb.expand(leaf->origin());
     if (!leaves.empty()) {
-      constexpr int32_t D = LeafT::DIM;
       const Coord lo = lb.min(), hi = lb.max();
       const int32_t nx = (hi.x() - lo.x()) / D + 1, ny = (hi.y() - lo.y()) / D + 1, nz = (hi.z() - lo.z()) / D + 1;
       const auto nb = static_cast<size_t>(nx) * ny * nz;
