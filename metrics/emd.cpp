@@ -4,6 +4,7 @@
 #include "metrics/assignment.h"
 #include "metrics/kdtree.h"
 #include "metrics/sampling.h"
+#include "metrics/simd.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -156,14 +157,13 @@ __attribute__((target("avx2"))) float row_costs_avx2(const float* bx, const floa
 }
 #endif
 
-using RowCosts = float (*)(const float*, const float*, const float*, const float*, int, float, float, float, float*);
-RowCosts pick_row_costs() {
+float row_costs_f(const float* bx, const float* by, const float* bz, const float* price, int n, float ax, float ay,
+                  float az, float* w) {
 #if defined(__x86_64__) && defined(__GNUC__)
-  if (__builtin_cpu_supports("avx2")) return row_costs_avx2;
+  if (avx2_enabled()) return row_costs_avx2(bx, by, bz, price, n, ax, ay, az, w);
 #endif
-  return row_costs_generic;
+  return row_costs_generic(bx, by, bz, price, n, ax, ay, az, w);
 }
-const RowCosts row_costs_f = pick_row_costs();
 
 // Appends to `out` every j < n with w[j] <= limit, in increasing order. Nearly all entries exceed the limit, so
 // 4 (SSE2, part of every x86-64 CPU) or 8 (AVX2) are compared and skipped together.
@@ -199,14 +199,12 @@ __attribute__((target("avx2"))) void collect_at_most_avx2(const float* w, int n,
 }
 #endif
 
-using CollectAtMost = void (*)(const float*, int, float, std::vector<int>&);
-CollectAtMost pick_collect_at_most() {
+void collect_at_most(const float* w, int n, float limit, std::vector<int>& out) {
 #if defined(__x86_64__) && defined(__GNUC__)
-  if (__builtin_cpu_supports("avx2")) return collect_at_most_avx2;
+  if (avx2_enabled()) return collect_at_most_avx2(w, n, limit, out);
 #endif
-  return collect_at_most_generic;
+  collect_at_most_generic(w, n, limit, out);
 }
-const CollectAtMost collect_at_most = pick_collect_at_most();
 
 class DenseCheck {
  public:

@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "metrics/sampling.h"
+#include "metrics/simd.h"
 
 #include <tbb/parallel_for.h>
 
@@ -66,15 +67,13 @@ __attribute__((target("avx2"))) void scan_points_avx2(const double* x, const dou
 }
 #endif
 
-using ScanPoints = void (*)(const double*, const double*, const double*, const uint32_t*, uint32_t, uint32_t,
-                            const double*, uint32_t&, double&);
-ScanPoints pick_scan_points() {
+void scan_points(const double* x, const double* y, const double* z, const uint32_t* order, uint32_t begin,
+                 uint32_t end, const double q[3], uint32_t& best_slot, double& best_d2) {
 #if defined(__x86_64__) && defined(__GNUC__)
-  if (__builtin_cpu_supports("avx2")) return scan_points_avx2;
+  if (avx2_enabled()) return scan_points_avx2(x, y, z, order, begin, end, q, best_slot, best_d2);
 #endif
-  return scan_points_generic;
+  scan_points_generic(x, y, z, order, begin, end, q, best_slot, best_d2);
 }
-const ScanPoints scan_points = pick_scan_points();
 
 }  // namespace
 
