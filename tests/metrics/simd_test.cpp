@@ -26,7 +26,8 @@ struct RestoreAvx2 {
 // The AVX2 kernels and the portable ones must give the same bits: same IEEE operations, same order, no FMA.
 TEST_CASE("vectorised kernels: AVX2 and portable versions give identical results") {
   const RestoreAvx2 restore;
-  MESSAGE(std::string("AVX2 available on this CPU: ") + (avx2_enabled() ? "yes" : "no (both runs use the portable kernels)"));
+  const std::string avx2 = avx2_enabled() ? "yes" : "no (both runs use the portable kernels)";
+  MESSAGE("AVX2 available on this CPU: " << avx2);
   // Sizes that leave remainders for both the 4- and the 8-lane loops.
   const Points a = sample_surface(make_torus(Vec3::Zero(), 0.65, 0.30, 32, 16), 517, 1).points;
   const Points b = sample_surface(make_torus(Vec3(0.03, 0, -0.02), 0.6, 0.33, 32, 16), 517, 2).points;
