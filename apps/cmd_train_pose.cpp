@@ -51,7 +51,24 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   app.add_option("--distance-min", o->s.net.distance_min, "smallest predictable camera distance")
       ->capture_default_str();
   app.add_option("--distance-max", o->s.net.distance_max, "largest predictable camera distance")->capture_default_str();
-  app.add_option("--seed", s.seed, "seed of the initialisation and of every batch")->capture_default_str();
+  app.add_option("--aug-colour", s.augment.colour,
+                 "photometric augmentation: random brightness and tint of the object, strength in [0, 1) (0 = off); "
+                 "the white background and the object's outline stay as rendered, so the camera stays exact")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 0.999));
+  app.add_option("--aug-swap", s.augment.channel_swap,
+                 "probability of a random permutation of the image's RGB channels (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--aug-noise", s.augment.noise,
+                 "standard deviation of Gaussian pixel noise added to training images in [0, 1] (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--seed", s.seed, "seed of the initialisation, of every batch and of the augmentation")
+      ->capture_default_str();
+  app.add_option("--init", s.init,
+                 "start from the parameters of this pose model (fine-tuning; same --width and distance range) "
+                 "instead of a seeded random initialisation");
   app.add_flag("--resume", s.resume,
                "continue from MODEL.train.ckpt when it exists (same settings required; bit-exact continuation)");
   app.add_option("--minutes", o->minutes, "stop after this many minutes, saving the model (0 = no limit)")

@@ -278,3 +278,51 @@ SdfBatch BatchSampler::batch(long step) const {
 }
 
 }  // namespace sdfkit
+
+namespace sdfkit {
+
+Json ImageAugmentSettings::to_json() const {
+  return {{"colour", colour}, {"channel_swap", channel_swap}, {"noise", noise}};
+}
+
+void augment_images(MatrixXfR& images, const ImageAugmentSettings& a, uint64_t seed, uint64_t stream) {
+  require(a.colour >= 0 && a.colour < 1, "augmentation: colour strength must be in [0, 1)");
+  require(a.channel_swap >= 0 && a.channel_swap <= 1, "augmentation: channel-swap probability must be in [0, 1]");
+  require(a.noise >= 0 && std::isfinite(a.noise), "augmentation: noise must be a finite value >= 0");
+  if (!a.enabled() || images.rows() == 0) return;
+  const Eigen::Index plane = images.cols() / 3;
+  const auto side = static_cast<Eigen::Index>(std::lround(std::sqrt(static_cast<double>(plane))));
+  require(images.cols() % 3 == 0 && side * side == plane,
+          "augmentation: rows must hold 3 square channels, got " + std::to_string(images.cols()) + " values");
+  static constexpr int kOrders[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  tbb::parallel_for(Eigen::Index(0), images.rows(), [&](Eigen::Index b) {
+    // Fixed draw order: colour (4 uniforms), swap (2), then noise, each only when enabled.
+    Rng rng = Rng::derived(seed ^ 0xa06e47a11ULL, stream + static_cast<uint64_t>(b));
+    float gain[3] = {1.f, 1.f, 1.f};
+    if (a.colour > 0) {
+      const double bright = rng.uniform(1.0 - a.colour, 1.0 + a.colour);
+      for (float& g : gain) g = static_cast<float>(bright * rng.uniform(1.0 - 0.5 * a.colour, 1.0 + 0.5 * a.colour));
+    }
+    int order = 0;
+    if (a.channel_swap > 0) {
+      const bool swap = rng.uniform() < a.channel_swap;
+      const auto pick = static_cast<int>(rng.below(6));
+      if (swap) order = pick;
+    }
+    float* row = images.row(b).data();
+    if (a.colour > 0 || order != 0) {
+      std::vector<float> src(row, row + 3 * plane);
+      for (int c = 0; c < 3; ++c) {
+        const float* in = src.data() + kOrders[order][c] * plane;
+        float* out = row + c * plane;
+        const float g = gain[c];
+        for (Eigen::Index i = 0; i < plane; ++i) out[i] = std::clamp(1.f - g * (1.f - in[i]), 0.f, 1.f);
+      }
+    }
+    if (a.noise > 0)
+      for (Eigen::Index i = 0; i < 3 * plane; ++i)
+        row[i] = std::clamp(row[i] + static_cast<float>(a.noise * rng.normal()), 0.f, 1.f);
+  });
+}
+
+}  // namespace sdfkit

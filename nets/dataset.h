@@ -130,3 +130,30 @@ class BatchSampler {
 void draw_samples(const MatrixXfR& samples, int n, uint64_t seed, PointsF& points, Eigen::VectorXf& sdf);
 
 }  // namespace sdfkit
+
+namespace sdfkit {
+
+/// Photometric augmentation of network input images that never moves the object (the camera of a training item
+/// stays exact). Every operation acts on the "ink" 1 - x (the image is composited on a white background,
+/// kNetBackground = 1), so the background stays exactly white and an anti-aliased edge pixel a*c + (1 - a) becomes
+/// a*c' + (1 - a): the result is what a render of the same object with another colour would give.
+///   - colour: per image, ink gains g_c = b * u_c with b ~ U(1 - colour, 1 + colour) (brightness) and
+///     u_c ~ U(1 - colour/2, 1 + colour/2) per channel (tint); x' = clamp(1 - g_c (1 - x), 0, 1).
+///   - channel_swap: with this probability, a uniformly chosen permutation of the RGB channels (6 orders).
+///   - noise: Gaussian pixel noise of this standard deviation on every pixel (background too), clamped to [0, 1].
+/// All zero = identity. Image b of a batch draws from Rng::derived(seed, stream + b) only, so the result does not
+/// depend on the thread count or on other images.
+struct ImageAugmentSettings {
+  double colour = 0;        ///< brightness/tint strength in [0, 1)
+  double channel_swap = 0;  ///< probability of an RGB permutation, [0, 1]
+  double noise = 0;         ///< pixel noise standard deviation (images in [0, 1])
+
+  [[nodiscard]] bool enabled() const { return colour > 0 || channel_swap > 0 || noise > 0; }
+  [[nodiscard]] Json to_json() const;
+};
+
+/// Augment B x (3 * S * S) channels-first rows in place (S = sqrt(cols / 3)); see ImageAugmentSettings.
+/// Throws InvalidInput on settings out of range or on rows that are not 3 square channels.
+void augment_images(MatrixXfR& images, const ImageAugmentSettings& settings, uint64_t seed, uint64_t stream);
+
+}  // namespace sdfkit

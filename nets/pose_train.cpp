@@ -23,7 +23,8 @@ Json settings_json(const PoseTrainSettings& s) {
   return {{"train_split", s.train_split}, {"steps", s.steps},   {"batch", s.batch},
           {"points", s.points},           {"lr", s.lr},         {"lr_min", s.lr_min},
           {"beta1", s.beta1},             {"weight_decay", s.weight_decay}, {"grad_clip", s.grad_clip},
-          {"max_shapes", s.max_shapes},   {"seed", s.seed}};
+          {"max_shapes", s.max_shapes},   {"seed", s.seed}, {"augment", s.augment.to_json()},
+          {"init", s.init}};
 }
 
 std::vector<PointsF> split_points(const SdfBatch& batch) {
@@ -181,6 +182,14 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
 
   PoseNet net(s.net, true);
   net.init(s.seed);
+  if (!s.init.empty()) {
+    const auto start = load_pose_model(s.init);
+    if (start->architecture() != net.architecture())
+      throw InvalidInput(s.init + ": --init model has another architecture than the network being trained (" +
+                         start->architecture().at("settings").dump() + " vs " + net.architecture().at("settings").dump() +
+                         ")");
+    std::copy(start->params().values.begin(), start->params().values.end(), net.params().values.begin());
+  }
   OptimizerSettings os;
   os.beta1 = s.beta1;
   os.weight_decay = s.weight_decay;
@@ -217,7 +226,8 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   long interval_n = 0;
   bool stop = false;
   while (step < s.steps && !stop) {
-    const SdfBatch batch = sampler.batch(step);
+    SdfBatch batch = sampler.batch(step);
+    augment_images(batch.images, s.augment, s.seed, static_cast<uint64_t>(step) * static_cast<uint64_t>(s.batch));
     net.params().zero_grad();
     const double loss = net.forward_backward(batch.images, split_points(batch), batch.cameras);
     if (s.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.params().size(), s.grad_clip);

@@ -32,7 +32,13 @@ struct PoseTrainSettings {
   int val_every = 200;     ///< validate + checkpoint every N steps (and at the end)
   int val_items = 48;      ///< (shape, view) items used for validation
   int max_shapes = 0;
+  /// Photometric augmentation of the training images (the camera stays exact; nets/dataset.h). Off by default in
+  /// the struct; `sdfkit train pose` sets its measured defaults.
+  ImageAugmentSettings augment;
   uint64_t seed = 1;
+  /// Start from the parameters of this pose model (fine-tuning; same architecture required) instead of the seeded
+  /// initialisation. Ignored when a resumable state is found (--resume).
+  std::string init;
   bool resume = false;
   double time_limit_seconds = 0;  ///< stop (and save) after this much wall time (0 = none)
 };
