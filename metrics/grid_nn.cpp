@@ -17,7 +17,7 @@
 namespace sdfkit::metrics {
 namespace {
 
-constexpr int kMaxRing = 5;  // rings of cells searched before a query goes to the KD-tree
+constexpr int kMaxRing = 5;  // cells up to this many cells away are searched; farther answers come from the KD-tree
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 constexpr size_t kNeighbourhood = 27;  // the first 27 sorted offsets: the cell and its neighbours (least distance 0)
