@@ -48,7 +48,7 @@ double BandTriangle::squared_distance(const Vec3& p) const {
 }
 
 void BandTriangle::row_min(double px, double py, int32_t z_begin, int32_t count, int32_t index_offset, double h,
-                           double* best) const {
+                           double* best, double limit2) const {
   if (!regular) {
     for (int32_t k = 0; k < count; ++k) {
       const Vec3 p(px, py, (z_begin + k - index_offset) * h);
@@ -58,16 +58,34 @@ void BandTriangle::row_min(double px, double py, int32_t z_begin, int32_t count,
   }
   // Row constants: every quantity below is (row constant) + (z coefficient) * pz.
   const double plane0 = n.x() * px + n.y() * py - offset, plane_z = n.z();
-  double edge0[3], edge_z[3], s0[3], s_z[3], u0[3], vz[3];
+  double edge0[3], edge_z[3];
   for (int j = 0; j < 3; ++j) {
     edge0[j] = m[j].x() * px + m[j].y() * py - m_offset[j];
     edge_z[j] = m[j].z();
-    const double ux = px - v[j].x(), uy = py - v[j].y();
-    s0[j] = dir[j].x() * ux + dir[j].y() * uy - dir[j].z() * v[j].z();
-    s_z[j] = dir[j].z();
-    u0[j] = ux * ux + uy * uy;
-    vz[j] = v[j].z();
   }
+  if (count <= 0) return;
+  {
+    // The whole row at once: affine bounds reach their minimum at an end of the row.
+    const double za = (z_begin - index_offset) * h, zb = (z_begin + count - 1 - index_offset) * h;
+    const double pa = plane0 + plane_z * za, pb = plane0 + plane_z * zb;
+    const double plane_min = pa * pb <= 0 ? 0.0 : std::min(std::abs(pa), std::abs(pb));
+    double edge_min = 0;
+    for (int j = 0; j < 3; ++j)
+      edge_min = std::max(edge_min, std::min(edge0[j] + edge_z[j] * za, edge0[j] + edge_z[j] * zb));
+    if (plane_min * plane_min + edge_min * edge_min >= limit2) return;
+  }
+  double s0[3], s_z[3], u0[3], vz[3];
+  bool edges_ready = false;
+  auto prepare_edges = [&] {
+    for (int j = 0; j < 3; ++j) {
+      const double ux = px - v[j].x(), uy = py - v[j].y();
+      s0[j] = dir[j].x() * ux + dir[j].y() * uy - dir[j].z() * v[j].z();
+      s_z[j] = dir[j].z();
+      u0[j] = ux * ux + uy * uy;
+      vz[j] = v[j].z();
+    }
+    edges_ready = true;
+  };
   for (int32_t k = 0; k < count; ++k) {
     const double pz = (z_begin + k - index_offset) * h;
     const double plane = plane0 + plane_z * pz;
@@ -81,6 +99,7 @@ void BandTriangle::row_min(double px, double py, int32_t z_begin, int32_t count,
     }
     // The edge with the largest outward distance bounds the in-plane offset from below.
     if (plane2 + emax * emax >= best[k]) continue;
+    if (!edges_ready) prepare_edges();
     const double e[3] = {e0, e1, e2};
     double d2 = 1e300;
     for (int j = 0; j < 3; ++j) {

@@ -12,6 +12,7 @@
 #include "core/types.h"
 
 #include <array>
+#include <limits>
 
 namespace sdfkit {
 
@@ -33,9 +34,10 @@ struct BandTriangle {
   [[nodiscard]] double squared_distance(const Vec3& p) const;
 
   /// For the lattice row p_k = (px, py, (z_begin + k - index_offset) * h), k = 0..count-1:
-  /// best[k] = min(best[k], squared distance of p_k), skipping points whose lower bound is >= best[k].
+  /// best[k] = min(best[k], squared distance of p_k), skipping points whose lower bound is >= best[k], and
+  /// the whole row when a bound over it is >= `limit2` (pass the largest best[k] or more; inf = no row test).
   void row_min(double px, double py, int32_t z_begin, int32_t count, int32_t index_offset, double h,
-               double* best) const;
+               double* best, double limit2 = std::numeric_limits<double>::infinity()) const;
 };
 
 }  // namespace sdfkit

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace sdfkit {
 namespace {
@@ -32,8 +33,12 @@ MeshDistance::MeshDistance(const Mesh& mesh) : bvh_(TriangleBvh::build(mesh, 4))
     for (int c = 0; c < 2; ++c) {
       const auto& box = bvh_.nodes[static_cast<size_t>(q.child[c])].box;
       for (int a = 0; a < 3; ++a) {
-        q.lo[a][c] = box.min()[a];
-        q.hi[a][c] = box.max()[a];
+        // Rounded outward so that distances to the float box never exceed those to the exact box.
+        float lo = static_cast<float>(box.min()[a]), hi = static_cast<float>(box.max()[a]);
+        if (static_cast<double>(lo) > box.min()[a]) lo = std::nextafter(lo, -std::numeric_limits<float>::infinity());
+        if (static_cast<double>(hi) < box.max()[a]) hi = std::nextafter(hi, std::numeric_limits<float>::infinity());
+        q.lo[a][c] = lo;
+        q.hi[a][c] = hi;
       }
     }
   }
@@ -104,9 +109,9 @@ ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound, int32_t hi
     }
     double d[2];
     for (int c = 0; c < 2; ++c) {
-      const double dx = std::max(std::max(node.lo[0][c] - px, px - node.hi[0][c]), 0.0);
-      const double dy = std::max(std::max(node.lo[1][c] - py, py - node.hi[1][c]), 0.0);
-      const double dz = std::max(std::max(node.lo[2][c] - pz, pz - node.hi[2][c]), 0.0);
+      const double dx = std::max(std::max(double(node.lo[0][c]) - px, px - double(node.hi[0][c])), 0.0);
+      const double dy = std::max(std::max(double(node.lo[1][c]) - py, py - double(node.hi[1][c])), 0.0);
+      const double dz = std::max(std::max(double(node.lo[2][c]) - pz, pz - double(node.hi[2][c])), 0.0);
       d[c] = dx * dx + dy * dy + dz * dz;
     }
     // Push the farther child first so the nearer one is explored first; children beyond the bound not at all.

@@ -38,8 +38,8 @@ class MeshDistance {
  private:
   /// Query layout of one BVH node: both children's boxes side by side (one fetch, two box distances), or the
   /// node's slot range when it is a leaf.
-  struct QueryNode {
-    double lo[3][2], hi[3][2];  ///< [axis][child]
+  struct alignas(64) QueryNode {
+    float lo[3][2], hi[3][2];  ///< [axis][child], rounded outward (float: one cache line per node)
     int32_t child[2] = {-1, -1};
     int32_t begin = 0, end = 0;
   };

@@ -314,7 +314,7 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
           for (int32_t x = lo.x(); x <= hi.x(); ++x)
             for (int32_t y = lo.y(); y <= hi.y(); ++y) {
               const size_t i = static_cast<size_t>(((x - origin.x()) * D + (y - origin.y())) * D + (lo.z() - origin.z()));
-              t.row_min((x - O) * h, (y - O) * h, lo.z(), hi.z() - lo.z() + 1, O, h, &best[i]);
+              t.row_min((x - O) * h, (y - O) * h, lo.z(), hi.z() - lo.z() + 1, O, h, &best[i], width2);
             }
         }
         bool any = false;

@@ -4,6 +4,7 @@
 
 #include <doctest/doctest.h>
 
+#include <limits>
 #include <vector>
 
 using namespace sdfkit;
@@ -67,7 +68,7 @@ TEST_CASE("band triangle: a row update is the exact minimum wherever it lowers t
       for (double& b : best) b = rng.uniform(0, 0.02);  // previous minima of other triangles
       before = best;
       const double px = (xi - O) * h, py = (yi - O) * h;
-      t.row_min(px, py, z0, count, O, h, best.data());
+      t.row_min(px, py, z0, count, O, h, best.data(), r % 2 ? 0.02 : std::numeric_limits<double>::infinity());
       for (int32_t k = 0; k < count; ++k) {
         const Vec3 p(px, py, (z0 + k - O) * h);
         const double ref = (closest_point_on_triangle(p, c[0], c[1], c[2]) - p).squaredNorm();
