@@ -134,27 +134,32 @@ NearestGrid::NearestGrid(const Points& points, const std::string& what) {
   // holds the nearest point: every box distance is reduced by this margin.
   slack_ = 64 * kEps * (max_abs + longest);
 
-  const size_t cells = static_cast<size_t>(dims_[0]) * dims_[1] * dims_[2];
-  std::vector<uint32_t> cell_of(static_cast<size_t>(n));
-  cell_start_.assign(cells + 1, 0);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const size_t c = static_cast<size_t>(cell_coord(points(i, 0), 0)) +
-                     dims_[0] * (static_cast<size_t>(cell_coord(points(i, 1), 1)) +
-                                 dims_[1] * static_cast<size_t>(cell_coord(points(i, 2), 2)));
-    cell_of[static_cast<size_t>(i)] = static_cast<uint32_t>(c);
-    ++cell_start_[c + 1];
-  }
-  for (size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
-  std::vector<uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
-  order_.resize(static_cast<size_t>(n));
+  order_ = bucket(points, cell_start_);
   for (auto* c : {&x_, &y_, &z_}) c->resize(static_cast<size_t>(n));
-  for (Eigen::Index i = 0; i < n; ++i) {  // stable: within a cell, points keep their input order
-    const uint32_t s = fill[cell_of[static_cast<size_t>(i)]]++;
-    order_[s] = static_cast<uint32_t>(i);
-    x_[s] = points(i, 0);
-    y_[s] = points(i, 1);
-    z_[s] = points(i, 2);
+  for (size_t s = 0; s < order_.size(); ++s) {
+    x_[s] = points(order_[s], 0);
+    y_[s] = points(order_[s], 1);
+    z_[s] = points(order_[s], 2);
   }
+}
+
+std::vector<uint32_t> NearestGrid::bucket(const Points& p, std::vector<uint32_t>& start) const {
+  const size_t cells = static_cast<size_t>(dims_[0]) * dims_[1] * dims_[2];
+  const auto n = static_cast<size_t>(p.rows());
+  std::vector<uint32_t> cell_of(n), sorted(n);
+  start.assign(cells + 1, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const auto r = static_cast<Eigen::Index>(i);
+    const size_t c = static_cast<size_t>(cell_coord(p(r, 0), 0)) +
+                     dims_[0] * (static_cast<size_t>(cell_coord(p(r, 1), 1)) +
+                                 dims_[1] * static_cast<size_t>(cell_coord(p(r, 2), 2)));
+    cell_of[i] = static_cast<uint32_t>(c);
+    ++start[c + 1];
+  }
+  for (size_t c = 0; c < cells; ++c) start[c + 1] += start[c];
+  std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+  for (size_t i = 0; i < n; ++i) sorted[fill[cell_of[i]]++] = static_cast<uint32_t>(i);  // stable
+  return sorted;
 }
 
 NearestGrid::~NearestGrid() = default;
@@ -267,17 +272,8 @@ void NearestGrid::nearest(const Points& queries, Eigen::VectorXi& index, Eigen::
   squared_distance.resize(n);
   // Visit the queries cell by cell (counting sort on the cell each falls in): neighbouring queries then read the
   // same few cells one after the other, and each search starts from the previous query's answer as its bound.
-  const size_t cells = cell_start_.size() - 1;
-  std::vector<uint32_t> first(cells + 1, 0), cell_of(static_cast<size_t>(n)), visit(static_cast<size_t>(n));
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const size_t c = static_cast<size_t>(cell_coord(queries(i, 0), 0)) +
-                     dims_[0] * (static_cast<size_t>(cell_coord(queries(i, 1), 1)) +
-                                 dims_[1] * static_cast<size_t>(cell_coord(queries(i, 2), 2)));
-    cell_of[static_cast<size_t>(i)] = static_cast<uint32_t>(c);
-    ++first[c + 1];
-  }
-  for (size_t c = 0; c < cells; ++c) first[c + 1] += first[c];
-  for (Eigen::Index i = 0; i < n; ++i) visit[first[cell_of[static_cast<size_t>(i)]]++] = static_cast<uint32_t>(i);
+  std::vector<uint32_t> first;
+  const std::vector<uint32_t> visit = bucket(queries, first);
 
   constexpr Eigen::Index block = 512;  // a fixed split: results never depend on it or on the thread count
   tbb::parallel_for(Eigen::Index(0), (n + block - 1) / block, [&](Eigen::Index b) {

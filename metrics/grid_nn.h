@@ -58,6 +58,8 @@ class NearestGrid {
   };
   static const std::vector<CellOffset>& block_offsets();
   [[nodiscard]] int cell_coord(double x, int axis) const;
+  /// Row indices of p sorted by cell (counting sort, stable); start[c] .. start[c + 1] are those of cell c.
+  std::vector<uint32_t> bucket(const Points& p, std::vector<uint32_t>& start) const;
   [[nodiscard]] Hit search(const double q[3], uint32_t guess, bool& resolved) const;
   [[nodiscard]] std::pair<int, double> fallback(const double q[3]) const;
 
