@@ -13,6 +13,7 @@
 #include "sdf/normalize.h"
 #include "sdf/orientation.h"
 #include "sdf/prepare.h"
+#include "sdf/sparse_sdf_vdb.h"
 #include "sdf/winding.h"
 
 #include <tbb/blocked_range.h>
@@ -69,6 +70,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
     double band = 0.0;
     bool no_dense = false;
     std::string only;
+    bool tree_memory = false;
   };
   auto o = std::make_shared<Opts>();
   app.add_option("meshes", o->meshes, "extra meshes to time (default: the built-in 50k closed mesh and soup, and "
@@ -89,6 +91,9 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
   app.add_option("--sign", o->sign, "sign method as in `sdfkit prep --sign`: auto or winding")
       ->check(CLI::IsMember({"auto", "winding"}))
       ->capture_default_str();
+  app.add_flag("--tree-memory", o->tree_memory,
+               "also report the memory of the same active voxels in non-standard OpenVDB trees with 4^3 leaves "
+               "(5,4,2 and 4,3,2 log2 node sizes; such trees are not FloatGrids other tools read)");
   app.add_option("--only", o->only, "time only the shapes whose name contains this text (e.g. torus, soup)");
   app.add_option("--json", o->json_out, "also write the results as JSON to this file");
   return [o] {
@@ -138,6 +143,17 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
       const Normalization norm = unit_sphere_normalization(sh.mesh);
       const Mesh object = orient_consistently(apply_normalization(validate_mesh(sh.mesh, sh.name), norm));
       const SparseSdf grid = SparseSdf::read(ShapeFiles((tmp / "shape").string()).sdf);
+      double tree542_mb = 0, tree432_mb = 0;
+      if (o->tree_memory) {
+        const auto g = vdb_grid(grid);
+        auto copy_mb = [&](auto tree) {
+          for (auto it = g->tree().cbeginValueOn(); it; ++it)
+            if (it.isVoxelValue()) tree->setValueOn(it.getCoord(), *it);
+          return static_cast<double>(tree->memUsage()) / 1e6;
+        };
+        tree542_mb = copy_mb(std::make_unique<openvdb::tree::Tree4<float, 5, 4, 2>::Type>(g->background()));
+        tree432_mb = copy_mb(std::make_unique<openvdb::tree::Tree4<float, 4, 3, 2>::Type>(g->background()));
+      }
       const MeshDistance dist(object);
       Rng rng(77);
       Points P(o->band_points, 3);
@@ -217,6 +233,9 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
                   "samples %.3f (%ld candidates) | gt %.3f | files %.3f\n",
                   st.seconds_mesh, st.grid.seconds_setup, st.grid.seconds_topology, st.grid.seconds_exact,
                   st.grid.seconds_sign, st.grid.winding_evaluations, st.seconds_samples, st.samples.candidates, st.seconds_gt, st.seconds_files);
+      if (o->tree_memory)
+        std::printf("  same active voxels in non-standard trees with 4^3 leaves: 5,4,2 %.2f MB | 4,3,2 %.2f MB "
+                    "(standard 5,4,3 FloatGrid %.2f MB)\n", tree542_mb, tree432_mb, st.grid_bytes / 1e6);
       std::fflush(stdout);
       results.push_back({{"shape", sh.name},
                          {"triangles", sh.mesh.F.rows()},
@@ -231,6 +250,8 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
                          {"dense_voxels", dense_voxels},
                          {"lattice_voxels", lattice},
                          {"grid_bytes", st.grid_bytes},
+                         {"tree_542_mb", tree542_mb},
+                         {"tree_432_mb", tree432_mb},
                          {"dense_bytes", dense_voxels * 4},
                          {"dense_seconds_2_threads", dense_s},
                          {"band_points", P.rows()},
