@@ -32,11 +32,16 @@ class MeshQueries {
   /// The winding-number hierarchy (built on first use, thread-safe).
   [[nodiscard]] const WindingNumber& winding() const;
   [[nodiscard]] double winding_beta() const { return beta_; }
+  /// True when every edge is crossed as often in one direction as in the other (closed parts, possibly
+  /// overlapping or self-intersecting): the winding number is then an integer off the surface and constant on
+  /// any connected set the surface does not cross. False for open meshes (boundary edges).
+  [[nodiscard]] bool boundary_free() const { return boundary_free_; }
 
  private:
   Mesh mesh_;
   SignMethod sign_ = SignMethod::None;
   double beta_ = 2.0;
+  bool boundary_free_ = false;
   std::unique_ptr<MeshDistance> distance_;
   std::optional<PseudoNormals> normals_;
   mutable std::optional<WindingNumber> winding_;

@@ -36,6 +36,7 @@ struct ExactSigned {
   const openvdb::FloatGrid& grid;
   double h;
   openvdb::Coord offset;  ///< grid_index_offset
+  bool boundary_free;     ///< closed parts only: a segment free of triangles certifies the voxel's sign
 
   /// NaN when the point is farther than `bound` from the mesh.
   template <typename Accessor>
@@ -53,7 +54,7 @@ struct ExactSigned {
       // when no triangle touches the segment between them (one BVH segment query instead of a winding number).
       if (u > 0.9 * h) return v < 0 ? -u : u;
       const Vec3 x((c.x() - offset.x()) * h, (c.y() - offset.y()) * h, (c.z() - offset.z()) * h);
-      if (!dist.segment_may_cross(p, x)) return v < 0 ? -u : u;
+      if (boundary_free && !dist.segment_may_cross(p, x)) return v < 0 ? -u : u;
     }
     return (*wn)(p) > 0.5 ? -u : u;
   }
@@ -192,7 +193,7 @@ MatrixXfR disn_samples(const MeshQueries& queries, const SparseSdf& sdf, const S
   const SignMethod method = queries.sign();
   const PseudoNormals* normals = queries.pseudo_normals();
   const WindingNumber* wn = normals ? nullptr : &queries.winding();
-  const ExactSigned exact{dist, wn, normals, grid, h, grid_index_offset(grid)};
+  const ExactSigned exact{dist, wn, normals, grid, h, grid_index_offset(grid), queries.boundary_free()};
   const openvdb::Coord off = exact.offset;
 
   SampleReport rep;

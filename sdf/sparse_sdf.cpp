@@ -390,8 +390,15 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
         }
       });
     };
-    // First across leaves: the same components over the whole band (voxel pairs across leaf faces joined by the
-    // same rule), a few probes per component. A component whose probes all agree clearly (|w - 0.5| >= 0.25)
+    // Open meshes (boundary edges): w is not an integer off the surface and may cross 0.5 anywhere, so every
+    // leaf is decided on its own (below).
+    if (!queries.boundary_free()) {
+      std::vector<int32_t> all(nl);
+      std::iota(all.begin(), all.end(), 0);
+      per_leaf(all);
+    } else
+    // Closed parts: across leaves, the same components over the whole band (voxel pairs across leaf faces
+    // joined by the same rule), a few probes per component. A component whose probes all agree clearly (|w - 0.5| >= 0.25)
     // takes their verdict; the leaves of any other component are decided leaf by leaf as above. A closed
     // shell's band then costs a handful of probes instead of a few per leaf.
     {
