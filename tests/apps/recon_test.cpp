@@ -49,9 +49,8 @@ bool have_models() {
 
 // Issue 8: recon of a shipped example reaches IoU > 0.5 against its GT with the shipped models (a check of the
 // model, not only of the code path), and the true camera is at least as good. Measured with the models of
-// 2026-11-21: 0.567 with the true camera, 0.490 with the estimated one (the pose network's 15 px d2D costs it;
-// docs/results/pose.md). The SDF model's check (true camera) is asserted; the estimated-camera IoU is printed and
-// issue 8 stays open until the pose network is good enough for it to pass 0.5 as well.
+// 2026-11-21: 0.567 with the true camera, 0.540 with the estimated one (session-3 pose model, d2D 13.5 px; the
+// session-2 pose model gave 0.490; docs/results/pose.md). Both cameras are asserted above 0.5.
 TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with the true camera, closed mesh") {
   REQUIRE_MESSAGE(have_models(), "the shipped models data/models/sdf.ckpt and pose.ckpt are missing");
   const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli" / "example";
@@ -75,7 +74,7 @@ TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with th
   CHECK(iou_cam > 0.5);
   // "At least as good", up to 0.02 of IoU: the two runs differ only by the camera.
   CHECK(iou_cam >= iou_est - 0.02);
-  CHECK(iou_est > 0.4);  // far above the 0.22 of the first shipped models; the goal (0.5) is not reached yet
+  CHECK(iou_est > 0.5);  // issue 8's goal, with the session-3 pose model (0.540; 0.490 with the session-2 one)
 }
 
 TEST_CASE("recon refuses corrupt, empty and background-only images with one clear line and exit 1") {
