@@ -9,6 +9,7 @@
 #include <assimp/scene.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
@@ -387,18 +388,36 @@ void write_mesh(const std::string& path, const Mesh& mesh) {
   const bool colored = mesh.has_colors();
   if (ext == "obj") {
     write_file_atomic(path, [&](std::ostream& o) {
-      char buf[160];
-      o << "# sdfkit mesh: " << mesh.V.rows() << " vertices, " << mesh.F.rows() << " faces\n";
+      // std::to_chars with (general, precision) prints exactly what printf's %.<precision>g prints, without the
+      // locale and format parsing (the gt mesh of a 50k-triangle shape was 7% of its preparation in printf).
+      std::string text;
+      text.reserve(static_cast<size_t>(mesh.V.rows()) * 40 + static_cast<size_t>(mesh.F.rows()) * 24 + 64);
+      char buf[64];
+      auto put_float = [&](double v, int precision) {
+        text += ' ';
+        const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, precision);
+        text.append(buf, r.ptr);
+      };
+      auto put_int = [&](long v) {
+        text += ' ';
+        const auto r = std::to_chars(buf, buf + sizeof buf, v);
+        text.append(buf, r.ptr);
+      };
+      text += "# sdfkit mesh: " + std::to_string(mesh.V.rows()) + " vertices, " + std::to_string(mesh.F.rows()) +
+              " faces\n";
       for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
+        text += 'v';
+        for (int k = 0; k < 3; ++k) put_float(mesh.V(i, k), 9);
         if (colored)
-          std::snprintf(buf, sizeof buf, "v %.9g %.9g %.9g %.4g %.4g %.4g\n", mesh.V(i, 0), mesh.V(i, 1), mesh.V(i, 2),
-                        mesh.colors(i, 0), mesh.colors(i, 1), mesh.colors(i, 2));
-        else
-          std::snprintf(buf, sizeof buf, "v %.9g %.9g %.9g\n", mesh.V(i, 0), mesh.V(i, 1), mesh.V(i, 2));
-        o << buf;
+          for (int k = 0; k < 3; ++k) put_float(static_cast<double>(mesh.colors(i, k)), 4);
+        text += '\n';
       }
-      for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-        o << "f " << mesh.F(f, 0) + 1 << ' ' << mesh.F(f, 1) + 1 << ' ' << mesh.F(f, 2) + 1 << '\n';
+      for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+        text += 'f';
+        for (int k = 0; k < 3; ++k) put_int(static_cast<long>(mesh.F(f, k)) + 1);
+        text += '\n';
+      }
+      o.write(text.data(), static_cast<std::streamsize>(text.size()));
     });
   } else if (ext == "ply") {
     write_file_atomic(path, [&](std::ostream& o) {
