@@ -211,7 +211,12 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   if (s.resume && fs::exists(state_path)) {
     const Checkpoint ck = load_checkpoint(state_path);
     require_header_match(ck, "architecture", net.architecture(), state_path);
-    require_header_match(ck, "settings", settings_json(s), state_path);
+    // States written before --aug-* and --init existed lack those keys; they continue as runs with both off.
+    Json expected = settings_json(s);
+    const Json& stored = ck.header.value("settings", Json::object());
+    if (stored.is_object() && !stored.contains("augment") && !s.augment.enabled()) expected.erase("augment");
+    if (stored.is_object() && !stored.contains("init") && s.init.empty()) expected.erase("init");
+    require_header_match(ck, "settings", expected, state_path);
     const auto& p = ck.block("params", static_cast<long>(net.n_params()));
     std::copy(p.begin(), p.end(), net.params().values.begin());
     ck.get_optimizer(opt);

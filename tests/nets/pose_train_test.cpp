@@ -123,3 +123,23 @@ TEST_CASE("train pose --init starts from a given model and refuses another archi
   CHECK_THROWS_AS(train_pose(w), InvalidInput);
   fs::remove_all(root);
 }
+
+TEST_CASE("train pose --resume accepts a state written before the augmentation and --init settings existed") {
+  const fs::path root = make_pose_dataset();
+  PoseTrainSettings s = tiny_settings(root, (root / "old.ckpt").string());
+  train_pose(s);
+  const std::string state = s.out + ".train.ckpt";
+  REQUIRE(fs::exists(state));
+  // Rewrite the state as an older sdfkit wrote it: no "augment" and no "init" in its settings.
+  Checkpoint ck = load_checkpoint(state);
+  ck.header["settings"].erase("augment");
+  ck.header["settings"].erase("init");
+  save_checkpoint(state, ck);
+  s.resume = true;
+  CHECK(train_pose(s).start_step == s.steps);  // the state was taken (a run from scratch would start at 0)
+  // ... but not when this run asks for augmentation the old run did not have.
+  save_checkpoint(state, ck);
+  s.augment.noise = 0.01;
+  CHECK_THROWS_AS(train_pose(s), InvalidInput);
+  fs::remove_all(root);
+}
