@@ -128,7 +128,6 @@ NearestGrid::NearestGrid(const Points& points, const std::string& what) {
     }
   }
   inv_h_ = 1 / h_;
-  offsets_ = block_offsets();
   const double max_abs = std::max(lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff());
   // Rounding of cell bounds and of the bucketing (a few ulps of the coordinates) must never prune the cell that
   // holds the nearest point: every box distance is reduced by this margin.
@@ -150,9 +149,7 @@ std::vector<uint32_t> NearestGrid::bucket(const Points& p, std::vector<uint32_t>
   start.assign(cells + 1, 0);
   for (size_t i = 0; i < n; ++i) {
     const auto r = static_cast<Eigen::Index>(i);
-    const size_t c = static_cast<size_t>(cell_coord(p(r, 0), 0)) +
-                     dims_[0] * (static_cast<size_t>(cell_coord(p(r, 1), 1)) +
-                                 dims_[1] * static_cast<size_t>(cell_coord(p(r, 2), 2)));
+    const size_t c = cell_index(cell_coord(p(r, 0), 0), cell_coord(p(r, 1), 1), cell_coord(p(r, 2), 2));
     cell_of[i] = static_cast<uint32_t>(c);
     ++start[c + 1];
   }
@@ -191,7 +188,7 @@ NearestGrid::Hit NearestGrid::search(const double q[3], uint32_t guess, bool& re
   };
   Hit best{std::numeric_limits<uint32_t>::max(), kInf};
   const auto scan = [&](int cx, int cy, int cz) {
-    const size_t cell = static_cast<size_t>(cx) + dims_[0] * (static_cast<size_t>(cy) + dims_[1] * static_cast<size_t>(cz));
+    const size_t cell = cell_index(cx, cy, cz);
     scan_points(x_.data(), y_.data(), z_.data(), order_.data(), cell_start_[cell], cell_start_[cell + 1], q,
                 best.slot, best.d2);
   };
@@ -216,12 +213,13 @@ NearestGrid::Hit NearestGrid::search(const double q[3], uint32_t guess, bool& re
     }
   }
   // 2. Cells further out, in the order of the least distance any query in the centre cell can have to them
-  //    (offsets_ is sorted by it): the search stops at the first offset whose least distance exceeds the best
+  //    (block_offsets() is sorted by it): the search stops at the first offset whose least distance exceeds the best
   //    distance found, since every cell after it is at least as far.
   double gap[3][2 * kMaxRing + 1];
   bool have_gap = false;
-  for (size_t i = kNeighbourhood; i < offsets_.size(); ++i) {
-    const CellOffset& o = offsets_[i];
+  const std::vector<CellOffset>& offsets = block_offsets();
+  for (size_t i = kNeighbourhood; i < offsets.size(); ++i) {
+    const CellOffset& o = offsets[i];
     const double lb = std::max(0.0, o.least * h_ - 2 * slack);
     if (lb * lb > best.d2) {
       resolved = true;

@@ -58,6 +58,9 @@ class NearestGrid {
   };
   static const std::vector<CellOffset>& block_offsets();
   [[nodiscard]] int cell_coord(double x, int axis) const;
+  [[nodiscard]] size_t cell_index(int cx, int cy, int cz) const {
+    return static_cast<size_t>(cx) + dims_[0] * (static_cast<size_t>(cy) + dims_[1] * static_cast<size_t>(cz));
+  }
   /// Row indices of p sorted by cell (counting sort, stable); start[c] .. start[c + 1] are those of cell c.
   std::vector<uint32_t> bucket(const Points& p, std::vector<uint32_t>& start) const;
   [[nodiscard]] Hit search(const double q[3], uint32_t guess, bool& resolved) const;
@@ -69,7 +72,6 @@ class NearestGrid {
   std::vector<uint32_t> cell_start_;  // cells + 1 offsets into x_, y_, z_, order_
   std::vector<double> x_, y_, z_;     // points sorted by cell
   std::vector<uint32_t> order_;       // original index of each sorted point
-  std::vector<CellOffset> offsets_;   // block_offsets(), local copy
   mutable std::once_flag tree_once_;
   mutable std::unique_ptr<KdTree> tree_;  // over the sorted points; built on the first far query
   mutable std::atomic<long> fallbacks_{0};
