@@ -11,24 +11,66 @@
 
 namespace sdfkit::metrics {
 
-namespace {
+EdgeRows::EdgeRows(int n)
+    : n_(std::max(n, 0)),
+      start_(static_cast<size_t>(n_), 0),
+      size_(static_cast<size_t>(n_), 0),
+      capacity_(static_cast<size_t>(n_), 0) {}
 
-/// Merges `edges` into one row's candidate list (validated against n columns), keeping it sorted by column with
-/// one entry per column (the lowest cost given stays; a first batch already sorted and unique is taken as is).
-/// Returns how many entries the row had before.
-size_t merge_row_edges(std::vector<std::pair<int, double>>& e, const std::vector<std::pair<int, double>>& edges,
-                       int n) {
-  const size_t before = e.size();
-  for (const auto& [col, c] : edges) {
-    if (col < 0 || col >= n || !std::isfinite(c)) throw InvalidInput("assignment: bad edge");
-    e.emplace_back(col, c);
+EdgeRows::EdgeRows(int n, std::vector<size_t> start, std::vector<int> cols, std::vector<double> costs)
+    : n_(std::max(n, 0)), col_(std::move(cols)), cost_(std::move(costs)) {
+  require(start.size() == static_cast<size_t>(n_) + 1 && start.front() == 0 && start.back() == col_.size() &&
+              cost_.size() == col_.size(),
+          "assignment: inconsistent compressed rows");
+  start_.assign(start.begin(), start.end() - 1);
+  size_.resize(static_cast<size_t>(n_));
+  for (int i = 0; i < n_; ++i) {
+    require(start[i + 1] >= start[i], "assignment: inconsistent compressed rows");
+    size_[i] = static_cast<int>(start[i + 1] - start[i]);
+    for (size_t q = start[i]; q < start[i + 1]; ++q)
+      if (col_[q] < 0 || col_[q] >= n_ || !std::isfinite(cost_[q]) || (q > start[i] && col_[q] <= col_[q - 1]))
+        throw InvalidInput("assignment: bad edge");
   }
-  if (before > 0 || !std::is_sorted(e.begin(), e.end())) std::sort(e.begin(), e.end());
-  e.erase(std::unique(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first == b.first; }), e.end());
-  return before;
+  capacity_ = size_;
+  edges_ = static_cast<long>(col_.size());
 }
 
-}  // namespace
+int EdgeRows::add(int row, const std::vector<std::pair<int, double>>& edges) {
+  require(row >= 0 && row < n_, "assignment: bad row");
+  for (const auto& [col, c] : edges)
+    if (col < 0 || col >= n_ || !std::isfinite(c)) throw InvalidInput("assignment: bad edge");
+  // The row's edges and the new ones, sorted by (column, cost): the first of each column is its lowest cost.
+  const auto r = static_cast<size_t>(row);
+  const int before = size_[r];
+  scratch_.clear();
+  for (int q = 0; q < before; ++q) scratch_.emplace_back(col_[start_[r] + q], cost_[start_[r] + q]);
+  scratch_.insert(scratch_.end(), edges.begin(), edges.end());
+  if (before > 0 || !std::is_sorted(scratch_.begin(), scratch_.end())) std::sort(scratch_.begin(), scratch_.end());
+  scratch_.erase(std::unique(scratch_.begin(), scratch_.end(), [](const auto& x, const auto& y) { return x.first == y.first; }),
+                 scratch_.end());
+  const auto m = static_cast<int>(scratch_.size());
+  if (m > capacity_[r]) {  // move to the end of the arena
+    const int cap = before == 0 ? m : std::max(m, 2 * capacity_[r]);
+    start_[r] = col_.size();
+    capacity_[r] = cap;
+    col_.resize(col_.size() + static_cast<size_t>(cap));
+    cost_.resize(cost_.size() + static_cast<size_t>(cap));
+  }
+  for (int q = 0; q < m; ++q) {
+    col_[start_[r] + q] = scratch_[q].first;
+    cost_[start_[r] + q] = scratch_[q].second;
+  }
+  size_[r] = m;
+  edges_ += m - before;
+  return m - before;
+}
+
+double EdgeRows::cost(int row, int col) const {
+  const int* c = cols(row);
+  const int* it = std::lower_bound(c, c + size(row), col);
+  require(it != c + size(row) && *it == col, "assignment: no such edge");
+  return costs(row)[it - c];
+}
 
 
 std::vector<int> hungarian(const Eigen::MatrixXd& cost, double* total) {
@@ -89,35 +131,32 @@ std::vector<int> hungarian(const Eigen::MatrixXd& cost, double* total) {
   return match;
 }
 
-SparseAuction::SparseAuction(int n)
-    : n_(n),
-      edges_(static_cast<size_t>(std::max(n, 0))),
-      col_of_row_(static_cast<size_t>(std::max(n, 0)), -1),
-      row_of_col_(static_cast<size_t>(std::max(n, 0)), -1),
-      price_(static_cast<size_t>(std::max(n, 0)), 0.0),
-      bid_eps_(static_cast<size_t>(std::max(n, 0)), std::numeric_limits<double>::infinity()) {
-  require(n > 0, "assignment: empty problem");
+SparseAuction::SparseAuction(int n) : SparseAuction(EdgeRows(n)) {}
+
+SparseAuction::SparseAuction(EdgeRows graph)
+    : n_(graph.rows()),
+      edges_(std::move(graph)),
+      col_of_row_(static_cast<size_t>(n_), -1),
+      row_of_col_(static_cast<size_t>(n_), -1),
+      price_(static_cast<size_t>(n_), 0.0),
+      bid_eps_(static_cast<size_t>(n_), std::numeric_limits<double>::infinity()) {
+  require(n_ > 0, "assignment: empty problem");
 }
 
 int SparseAuction::add_edges(int row, const std::vector<std::pair<int, double>>& edges) {
-  auto& e = edges_[static_cast<size_t>(row)];
-  const size_t before = merge_row_edges(e, edges, n_);
-  if (e.size() > before) bid_eps_[static_cast<size_t>(row)] = std::numeric_limits<double>::infinity();
-  return static_cast<int>(e.size() - before);
+  const int added = edges_.add(row, edges);
+  if (added > 0) bid_eps_[static_cast<size_t>(row)] = std::numeric_limits<double>::infinity();
+  return added;
 }
 
-long SparseAuction::num_edges() const {
-  long m = 0;
-  for (const auto& e : edges_) m += static_cast<long>(e.size());
-  return m;
-}
+long SparseAuction::num_edges() const { return edges_.num_edges(); }
 
 int SparseAuction::ensure_perfect_matching(const std::function<double(int, int)>& cost_of) {
   // Kuhn's augmenting paths (iterative DFS) from a greedy start; unweighted.
   std::vector<int> match_row(n_, -1), match_col(n_, -1), visited(n_, -1), parent_col(n_, -1);
   for (int i = 0; i < n_; ++i)
-    for (const auto& [j, c] : edges_[i])
-      if (match_col[j] < 0) {
+    for (int q = 0; q < edges_.size(i); ++q)
+      if (const int j = edges_.cols(i)[q]; match_col[j] < 0) {
         match_col[j] = i;
         match_row[i] = j;
         break;
@@ -131,11 +170,11 @@ int SparseAuction::ensure_perfect_matching(const std::function<double(int, int)>
     // visited[col] = r marks columns seen in this search; parent_col[col] = row that reached it.
     while (!stack.empty() && !found) {
       auto& [i, next] = stack.back();
-      if (next == edges_[i].size()) {
+      if (next == static_cast<size_t>(edges_.size(i))) {
         stack.pop_back();
         continue;
       }
-      const int j = edges_[i][next++].first;
+      const int j = edges_.cols(i)[next++];
       if (visited[j] == r) continue;
       visited[j] = r;
       parent_col[j] = i;
@@ -169,10 +208,12 @@ double SparseAuction::slack(int row) const {
   const int s = col_of_row_[static_cast<size_t>(row)];
   if (s < 0) return std::numeric_limits<double>::infinity();
   double best = std::numeric_limits<double>::infinity(), mine = best;
-  for (const auto& [j, c] : edges_[static_cast<size_t>(row)]) {
-    const double w = c + price_[j];
+  const int* cols = edges_.cols(row);
+  const double* costs = edges_.costs(row);
+  for (int q = 0, m = edges_.size(row); q < m; ++q) {
+    const double w = costs[q] + price_[cols[q]];
     best = std::min(best, w);
-    if (j == s) mine = w;
+    if (cols[q] == s) mine = w;
   }
   return mine - best;
 }
@@ -184,8 +225,11 @@ void SparseAuction::bid_until_assigned(std::vector<int>& queue) {
     const int i = queue[head++];
     double best = std::numeric_limits<double>::infinity(), second = best;
     int best_j = -1;
-    for (const auto& [j, c] : edges_[i]) {
-      const double w = c + price_[j];
+    const int* cols = edges_.cols(i);
+    const double* costs = edges_.costs(i);
+    for (int q = 0, m = edges_.size(i); q < m; ++q) {
+      const int j = cols[q];
+      const double w = costs[q] + price_[j];
       if (w < second) {  // rarely true after the first few edges: one well-predicted branch per edge
         if (w < best) {
           second = best;
@@ -244,44 +288,43 @@ void SparseAuction::solve(double eps_start, double eps_final, double factor) {
 
 namespace sdfkit::metrics {
 
-SparseShortestPath::SparseShortestPath(int n)
-    : n_(n),
-      edges_(static_cast<size_t>(std::max(n, 0))),
-      col_of_row_(static_cast<size_t>(std::max(n, 0)), -1),
-      row_of_col_(static_cast<size_t>(std::max(n, 0)), -1),
-      v_(static_cast<size_t>(std::max(n, 0)), 0.0),
-      dist_(static_cast<size_t>(std::max(n, 0)), 0.0),
-      pred_row_(static_cast<size_t>(std::max(n, 0)), -1),
-      stamp_(static_cast<size_t>(std::max(n, 0)), -1),
-      done_(static_cast<size_t>(std::max(n, 0)), -1),
-      assigned_cost_(static_cast<size_t>(std::max(n, 0)), 0.0) {
-  require(n > 0, "assignment: empty problem");
+SparseShortestPath::SparseShortestPath(int n) : SparseShortestPath(EdgeRows(n)) {}
+
+SparseShortestPath::SparseShortestPath(EdgeRows graph)
+    : n_(graph.rows()),
+      edges_(std::move(graph)),
+      col_of_row_(static_cast<size_t>(n_), -1),
+      row_of_col_(static_cast<size_t>(n_), -1),
+      v_(static_cast<size_t>(n_), 0.0),
+      dist_(static_cast<size_t>(n_), 0.0),
+      pred_row_(static_cast<size_t>(n_), -1),
+      stamp_(static_cast<size_t>(n_), -1),
+      done_(static_cast<size_t>(n_), -1),
+      assigned_cost_(static_cast<size_t>(n_), 0.0) {
+  require(n_ > 0, "assignment: empty problem");
 }
 
 int SparseShortestPath::add_edges(int row, const std::vector<std::pair<int, double>>& edges) {
-  auto& e = edges_[static_cast<size_t>(row)];
-  const size_t before = merge_row_edges(e, edges, n_);
+  const int added = edges_.add(row, edges);
   const int s = col_of_row_[static_cast<size_t>(row)];
-  if (e.size() > before && s >= 0) {
+  if (added > 0 && s >= 0) {
     // Still tight? (the assigned edge must attain the row minimum of c_ij - v_j)
     double mine = 0, best = std::numeric_limits<double>::infinity();
-    for (const auto& [j, c] : e) {
-      best = std::min(best, c - v_[j]);
-      if (j == s) mine = c - v_[j];
+    const int* cols = edges_.cols(row);
+    const double* costs = edges_.costs(row);
+    for (int q = 0, m = edges_.size(row); q < m; ++q) {
+      best = std::min(best, costs[q] - v_[cols[q]]);
+      if (cols[q] == s) mine = costs[q] - v_[cols[q]];
     }
     if (best < mine) {
       col_of_row_[static_cast<size_t>(row)] = -1;
       row_of_col_[static_cast<size_t>(s)] = -1;
     }
   }
-  return static_cast<int>(e.size() - before);
+  return added;
 }
 
-long SparseShortestPath::num_edges() const {
-  long m = 0;
-  for (const auto& e : edges_) m += static_cast<long>(e.size());
-  return m;
-}
+long SparseShortestPath::num_edges() const { return edges_.num_edges(); }
 
 std::vector<double> SparseShortestPath::prices() const {
   std::vector<double> p(v_.size());
@@ -293,10 +336,12 @@ double SparseShortestPath::slack(int row) const {
   const int s = col_of_row_[static_cast<size_t>(row)];
   if (s < 0) return std::numeric_limits<double>::infinity();
   double best = std::numeric_limits<double>::infinity(), mine = best;
-  for (const auto& [j, c] : edges_[static_cast<size_t>(row)]) {
-    const double w = c - v_[j];
+  const int* cols = edges_.cols(row);
+  const double* costs = edges_.costs(row);
+  for (int q = 0, m = edges_.size(row); q < m; ++q) {
+    const double w = costs[q] - v_[cols[q]];
     best = std::min(best, w);
-    if (j == s) mine = w;
+    if (cols[q] == s) mine = w;
   }
   return mine - best;
 }
@@ -310,7 +355,11 @@ void SparseShortestPath::augment(int f) {
   settled_.clear();
   const auto cmp = std::greater<>();
   auto relax = [&](int row, double base) {
-    for (const auto& [j, c] : edges_[row]) {
+    const int* cols = edges_.cols(row);
+    const double* costs = edges_.costs(row);
+    for (int q = 0, m = edges_.size(row); q < m; ++q) {
+      const int j = cols[q];
+      const double c = costs[q];
       if (done_[j] == search_) continue;
       const double d = base + c - v_[j];
       if (stamp_[j] != search_ || d < dist_[j]) {
@@ -361,9 +410,7 @@ void SparseShortestPath::augment(int f) {
 void SparseShortestPath::assign(int i, int j) {
   col_of_row_[i] = j;
   row_of_col_[j] = i;
-  const auto& e = edges_[i];
-  const auto it = std::lower_bound(e.begin(), e.end(), j, [](const auto& x, int col) { return x.first < col; });
-  assigned_cost_[i] = it->second;
+  assigned_cost_[i] = edges_.cost(i, j);
 }
 
 void SparseShortestPath::reset(const std::vector<double>& prices) {

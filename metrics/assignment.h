@@ -18,6 +18,37 @@ namespace sdfkit::metrics {
 /// `total`, when given, receives the summed cost. Throws InvalidInput if the matrix is not square or not finite.
 std::vector<int> hungarian(const Eigen::MatrixXd& cost, double* total = nullptr);
 
+/// The candidate edges of a square assignment problem, row by row, in one arena: row i's columns and costs are
+/// contiguous (cols(i)[0 .. size(i)), sorted by column, one entry per column), so the solvers' inner loops stream
+/// through memory instead of chasing one heap block per row. Rows that outgrow their slot move to the end of
+/// the arena with twice the room (edges are only ever added), leaving the old slot unused.
+class EdgeRows {
+ public:
+  explicit EdgeRows(int n);
+  /// A whole graph at once, in compressed rows: row i's edges are cols/costs[start[i] .. start[i + 1]), which
+  /// must be sorted by column without repeats (InvalidInput otherwise, as for bad columns or costs).
+  EdgeRows(int n, std::vector<size_t> start, std::vector<int> cols, std::vector<double> costs);
+  /// Adds (column, cost) edges to `row` (validated: column in [0, n), finite cost); a repeated column keeps its
+  /// lowest cost. Returns the number of new columns.
+  int add(int row, const std::vector<std::pair<int, double>>& edges);
+  [[nodiscard]] int rows() const { return n_; }
+  [[nodiscard]] int size(int row) const { return size_[static_cast<size_t>(row)]; }
+  [[nodiscard]] const int* cols(int row) const { return col_.data() + start_[static_cast<size_t>(row)]; }
+  [[nodiscard]] const double* costs(int row) const { return cost_.data() + start_[static_cast<size_t>(row)]; }
+  /// Cost of edge (row, col); the edge must exist.
+  [[nodiscard]] double cost(int row, int col) const;
+  [[nodiscard]] long num_edges() const { return edges_; }
+
+ private:
+  int n_;
+  long edges_ = 0;
+  std::vector<size_t> start_;
+  std::vector<int> size_, capacity_;
+  std::vector<int> col_;
+  std::vector<double> cost_;
+  std::vector<std::pair<int, double>> scratch_;
+};
+
 /// Forward auction (Bertsekas) with epsilon scaling on a sparse bipartite graph, minimisation form: every free
 /// row bids for the column j that minimises c_ij + p_j, raising p_j by the margin to its second-best column
 /// plus eps. At the end of a phase every row is assigned and eps-complementary slackness holds on the graph:
@@ -27,6 +58,8 @@ std::vector<int> hungarian(const Eigen::MatrixXd& cost, double* total = nullptr)
 class SparseAuction {
  public:
   explicit SparseAuction(int n);
+  /// Starts from a graph built beforehand (no prices or assignment yet).
+  explicit SparseAuction(EdgeRows graph);
 
   /// Adds candidate edges (column, cost) of `row`; a repeated column keeps its lowest cost. Returns the number
   /// of new edges. A row whose edges change is re-checked (and freed if it breaks eps-CS) at the next solve().
@@ -48,6 +81,7 @@ class SparseAuction {
   [[nodiscard]] double eps() const { return eps_; }
   [[nodiscard]] const std::vector<int>& col_of_row() const { return col_of_row_; }
   [[nodiscard]] const std::vector<double>& prices() const { return price_; }
+  [[nodiscard]] const EdgeRows& graph() const { return edges_; }
 
  private:
   void bid_until_assigned(std::vector<int>& queue);
@@ -55,7 +89,7 @@ class SparseAuction {
   int n_;
   double eps_ = 0;
   long bids_ = 0;
-  std::vector<std::vector<std::pair<int, double>>> edges_;  // per row, sorted by column
+  EdgeRows edges_;
   std::vector<int> col_of_row_, row_of_col_;
   std::vector<double> price_;
   std::vector<double> bid_eps_;  // eps of each row's last bid (infinity: never, or edges added since)
@@ -75,6 +109,8 @@ namespace sdfkit::metrics {
 class SparseShortestPath {
  public:
   explicit SparseShortestPath(int n);
+  /// Starts from a graph built beforehand (every row free, zero prices until reset()).
+  explicit SparseShortestPath(EdgeRows graph);
 
   /// Adds candidate edges (column, cost) of `row`; a repeated column keeps its lowest cost. Returns the number
   /// of new edges. If a new edge undercuts the row's assigned one, the row is freed (solve() re-assigns
@@ -102,7 +138,7 @@ class SparseShortestPath {
 
   int n_;
   long scanned_total_ = 0, augmentations_ = 0;
-  std::vector<std::vector<std::pair<int, double>>> edges_;  // per row, sorted by column
+  EdgeRows edges_;
   std::vector<int> col_of_row_, row_of_col_;
   std::vector<double> v_;  // column potentials
   // Dijkstra workspace (reused; stamp_ marks the entries valid in the current search)

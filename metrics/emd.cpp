@@ -303,6 +303,88 @@ class DenseCheck {
   std::vector<double> checked_price_;
 };
 
+// The first candidate graph of the exact EMD, between SITES (distinct locations; vertex sampling with
+// replacement repeats points many times, and the k nearest points would then be copies of one or two
+// locations): every site's k nearest sites in the other set, both directions. The r-th copy of a site with m
+// copies is joined to copies r c, ..., r c + c - 1 (mod w) of a neighbouring site with w copies,
+// c = min(4, ceil(w / m)), so the copies on both sides are spread over each other. Without repeated points this
+// is the plain k-NN graph. Plus the pairs of equal rank along a Morton curve through both sets: a permutation,
+// so the graph always holds a perfect matching, and one whose edges cross between regions where the two sets
+// have unequal mass (which k-NN edges do not). Built in flat arrays (a counting pass, then a filling pass;
+// each row's columns sorted and made unique, and only then their distances computed): no per-row allocation.
+// Queries run in parallel into fixed slots and rows are finished independently: the graph does not depend on
+// the thread count.
+EdgeRows candidate_graph(const Points& a, const Points& b, const Box3& box, int k) {
+  const int n = static_cast<int>(a.rows());
+  const Sites sa(a), sb(b);
+  const int na = sa.count(), nb = sb.count();
+  const int kf = std::min(k, nb), kb = std::min(k, na);
+  std::vector<uint32_t> fwd(static_cast<size_t>(na) * kf), bwd(static_cast<size_t>(nb) * kb);
+  {
+    const KdTree tb(sb.where, "EMD: second point set"), ta(sa.where, "EMD: first point set");
+    tbb::parallel_for(tbb::blocked_range<int>(0, std::max(na, nb), 64), [&](const tbb::blocked_range<int>& r) {
+      std::vector<double> d2(static_cast<size_t>(std::max(kf, kb)));
+      for (int i = r.begin(); i != r.end(); ++i) {
+        if (i < na) tb.knn(sa.where.row(i).transpose(), kf, fwd.data() + static_cast<size_t>(i) * kf, d2.data());
+        if (i < nb) ta.knn(sb.where.row(i).transpose(), kb, bwd.data() + static_cast<size_t>(i) * kb, d2.data());
+      }
+    });
+  }
+  const std::vector<int> oa = morton_order(a, box), ob = morton_order(b, box);
+  // copies of `from` (m of them) against copies of `to` (w): the r-th copy gets c consecutive copies of `to`
+  auto spread = [](int m, int w, int r, int q) {
+    const int c = std::min({4, w, (w + m - 1) / m});
+    return q < c ? static_cast<int>((static_cast<long>(r) * c + q) % w) : -1;
+  };
+  auto for_each_pair = [&](auto&& emit) {  // emit(row of a, column of b), every candidate, repeats included
+    for (int s = 0; s < na; ++s)
+      for (int e = 0; e < kf; ++e) {
+        const auto t = static_cast<int>(fwd[static_cast<size_t>(s) * kf + e]);
+        const int m = sa.size(s), w = sb.size(t);
+        for (int r = 0; r < m; ++r)
+          for (int q = 0, x; (x = spread(m, w, r, q)) >= 0; ++q) emit(sa.member(s, r), sb.member(t, x));
+      }
+    for (int t = 0; t < nb; ++t)
+      for (int e = 0; e < kb; ++e) {
+        const auto s = static_cast<int>(bwd[static_cast<size_t>(t) * kb + e]);
+        const int w = sb.size(t), m = sa.size(s);
+        for (int r = 0; r < w; ++r)
+          for (int q = 0, x; (x = spread(w, m, r, q)) >= 0; ++q) emit(sa.member(s, x), sb.member(t, r));
+      }
+    for (int r = 0; r < n; ++r) emit(oa[r], ob[r]);
+  };
+  std::vector<size_t> start(static_cast<size_t>(n) + 1, 0);
+  for_each_pair([&](int i, int) { ++start[i + 1]; });
+  for (int i = 0; i < n; ++i) start[i + 1] += start[i];
+  std::vector<int> cand(start[n]);
+  {
+    std::vector<size_t> fill(start.begin(), start.end() - 1);
+    for_each_pair([&](int i, int j) { cand[fill[i]++] = j; });
+  }
+  std::vector<int> kept(static_cast<size_t>(n));
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i != r.end(); ++i) {
+      int* first = cand.data() + start[i];
+      int* last = cand.data() + start[i + 1];
+      std::sort(first, last);
+      kept[i] = static_cast<int>(std::unique(first, last) - first);
+    }
+  });
+  std::vector<size_t> row_start(static_cast<size_t>(n) + 1, 0);
+  for (int i = 0; i < n; ++i) row_start[i + 1] = row_start[i] + static_cast<size_t>(kept[i]);
+  std::vector<int> cols(row_start[n]);
+  std::vector<double> costs(row_start[n]);
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 64), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i != r.end(); ++i)
+      for (int q = 0; q < kept[i]; ++q) {
+        const int j = cand[start[i] + q];
+        cols[row_start[i] + q] = j;
+        costs[row_start[i] + q] = distance(a, i, b, j);
+      }
+  });
+  return EdgeRows(n, std::move(row_start), std::move(cols), std::move(costs));
+}
+
 }  // namespace
 
 EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& settings) {
@@ -329,60 +411,11 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
   // A row may keep a slack up to tol_row: the certificate then bounds total - optimum by n tol_row.
   const double tol_row = settings.tolerance * diag / n;
 
-  // 1. Candidate graph, between SITES (distinct locations; vertex sampling with replacement repeats points many
-  //    times, and the k nearest points would then be copies of one or two locations): every site's k nearest
-  //    sites in the other set, both directions. The r-th copy of a site with m copies is joined to copies
-  //    r c, ..., r c + c - 1 (mod w) of a neighbouring site with w copies, c = min(4, ceil(w / m)), so the copies
-  //    on both sides are spread over each other. Without repeated points this is the plain k-NN graph. Plus the
-  //    pairs of equal rank along a Morton curve through both sets: a permutation, so the graph always holds a
-  //    perfect matching, and one whose edges cross between regions where the two sets have unequal mass (which
-  //    k-NN edges do not). Queried in parallel into per-site slots, assembled sequentially: the graph does not
-  //    depend on the thread count.
-  std::vector<EdgeList> rows(n);
+  // 1. Candidate graph (candidate_graph above).
+  EdgeRows graph = candidate_graph(a, b, box, k);
   double longest = 0;
-  {
-    const Sites sa(a), sb(b);
-    const KdTree tb(sb.where, "EMD: second point set"), ta(sa.where, "EMD: first point set");
-    const int na = sa.count(), nb = sb.count();
-    std::vector<EdgeList> fwd(na), bwd(nb);
-    tbb::parallel_for(tbb::blocked_range<int>(0, std::max(na, nb), 64), [&](const tbb::blocked_range<int>& r) {
-      for (int i = r.begin(); i != r.end(); ++i) {
-        if (i < na) fwd[i] = tb.knn(sa.where.row(i).transpose(), std::min(k, nb));
-        if (i < nb) bwd[i] = ta.knn(sb.where.row(i).transpose(), std::min(k, na));
-      }
-    });
-    // copies of `from` (m of them) against copies of `to` (w): the r-th copy gets c consecutive copies of `to`
-    auto spread = [](int m, int w, int r, int q) {
-      const int c = std::min({4, w, (w + m - 1) / m});
-      return q < c ? static_cast<int>((static_cast<long>(r) * c + q) % w) : -1;
-    };
-    for (int s = 0; s < na; ++s)
-      for (const auto& [t, d2] : fwd[s]) {
-        const int m = sa.size(s), w = sb.size(t);
-        for (int r = 0; r < m; ++r)
-          for (int q = 0, x; (x = spread(m, w, r, q)) >= 0; ++q) {
-            const int i = sa.member(s, r), j = sb.member(t, x);
-            rows[i].emplace_back(j, distance(a, i, b, j));
-          }
-      }
-    for (int t = 0; t < nb; ++t)
-      for (const auto& [s, d2] : bwd[t]) {
-        const int w = sb.size(t), m = sa.size(s);
-        for (int r = 0; r < w; ++r)
-          for (int q = 0, x; (x = spread(w, m, r, q)) >= 0; ++q) {
-            const int j = sb.member(t, r), i = sa.member(s, x);
-            rows[i].emplace_back(j, distance(a, i, b, j));
-          }
-      }
-    const std::vector<int> oa = morton_order(a, box), ob = morton_order(b, box);
-    for (int r = 0; r < n; ++r) rows[oa[r]].emplace_back(ob[r], distance(a, oa[r], b, ob[r]));
-    for (auto& e : rows) {
-      std::sort(e.begin(), e.end());
-      e.erase(std::unique(e.begin(), e.end(), [](const auto& x, const auto& y) { return x.first == y.first; }),
-              e.end());
-      for (const auto& edge : e) longest = std::max(longest, edge.second);
-    }
-  }
+  for (int i = 0; i < n; ++i)
+    for (int q = 0; q < graph.size(i); ++q) longest = std::max(longest, graph.costs(i)[q]);
   DenseCheck check(a, b, box.center());
   const auto keep = static_cast<size_t>(4 * settings.candidates);
 
@@ -390,15 +423,11 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
   //    pairs the k-NN graph missed (long-range transport), and the auction settles them (warm, from a start eps
   //    well below the largest violation: a restart at the violation's size would disturb every price).
   const double eps_coarse = std::max(1e-4 * diag, tol_row);
-  SparseAuction auction(n);
-  for (int i = 0; i < n; ++i) auction.add_edges(i, rows[i]);
+  SparseAuction auction(std::move(graph));
   auction.solve(std::max(longest / 4, eps_coarse), eps_coarse, 8.0);
   if (check.run(auction.col_of_row(), auction.prices(), 2 * eps_coarse, keep) > 0) {
     for (int i = 0; i < n; ++i)
-      if (!check.violations(i).empty()) {
-        auction.add_edges(i, check.violations(i));
-        rows[i].insert(rows[i].end(), check.violations(i).begin(), check.violations(i).end());
-      }
+      if (!check.violations(i).empty()) auction.add_edges(i, check.violations(i));
     auction.solve(std::max(check.worst_slack_of_violating_rows() / 64, eps_coarse), eps_coarse, 8.0);
   }
   result.bids = auction.num_bids();
@@ -409,8 +438,7 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
   //    sum(u) + sum(v) and  total - optimum <= gap = sum_i [c_i,s(i) + p_s(i) - u_i]. Rows with a slack above
   //    tol_row get their violating pairs (the assignment frees them) and are re-augmented; repeat until no row
   //    has one. Then gap <= n tol_row = tolerance x diagonal.
-  SparseShortestPath sap(n);
-  for (int i = 0; i < n; ++i) sap.add_edges(i, rows[i]);
+  SparseShortestPath sap(auction.graph());  // the auction's graph, with the pairs its check added
   sap.reset(auction.prices());
   sap.solve();
   check.reset();

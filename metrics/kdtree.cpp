@@ -102,13 +102,19 @@ std::vector<std::pair<int, double>> KdTree::knn(const Vec3& q, int k) const {
   k = std::max(0, std::min<int>(k, static_cast<int>(points_.rows())));
   std::vector<uint32_t> idx(static_cast<size_t>(k));
   std::vector<double> d2(static_cast<size_t>(k));
-  nanoflann::KNNResultSet<double, uint32_t> result(static_cast<size_t>(k));
-  result.init(idx.data(), d2.data());
-  const double query[3] = {q.x(), q.y(), q.z()};
-  impl_->tree.findNeighbors(result, query, nanoflann::SearchParams());
-  std::vector<std::pair<int, double>> out(result.size());
+  std::vector<std::pair<int, double>> out(static_cast<size_t>(knn(q, k, idx.data(), d2.data())));
   for (size_t i = 0; i < out.size(); ++i) out[i] = {static_cast<int>(idx[i]), d2[i]};
   return out;
+}
+
+int KdTree::knn(const Vec3& q, int k, uint32_t* index, double* squared_distance) const {
+  k = std::max(0, std::min<int>(k, static_cast<int>(points_.rows())));
+  if (k == 0) return 0;
+  nanoflann::KNNResultSet<double, uint32_t> result(static_cast<size_t>(k));
+  result.init(index, squared_distance);
+  const double query[3] = {q.x(), q.y(), q.z()};
+  impl_->tree.findNeighbors(result, query, nanoflann::SearchParams());
+  return static_cast<int>(result.size());
 }
 
 }  // namespace sdfkit::metrics

@@ -34,6 +34,8 @@ class KdTree {
   [[nodiscard]] std::vector<uint32_t> leaf_order() const;
   /// The k nearest points of q (k clamped to the size), closest first: (index, squared distance).
   [[nodiscard]] std::vector<std::pair<int, double>> knn(const Vec3& q, int k) const;
+  /// The same into caller buffers of k entries (no allocation); returns how many were found (min(k, size)).
+  int knn(const Vec3& q, int k, uint32_t* index, double* squared_distance) const;
 
  private:
   struct Impl;
