@@ -2,10 +2,12 @@
 
 #include "core/error.h"
 #include "core/random.h"
+#include "metrics/simd.h"
 
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 using namespace sdfkit;
@@ -165,4 +167,61 @@ TEST_CASE("shortest augmenting paths: exact optimum on complete and sparse graph
   bad.add_edges(0, {{0, 1.0}});
   bad.add_edges(1, {{0, 1.0}});
   CHECK_THROWS_AS(bad.solve(), InvalidInput);
+}
+
+// The auction's bid scan has a 4-lane AVX2 version (chosen at run time) and a portable one; they must make the
+// same bids, including the choice among columns of equal value (the smallest column) on integer costs.
+TEST_CASE("auction: AVX2 and portable bid scans give the same prices, bids and assignment, ties included") {
+  const bool saved = avx2_enabled();
+  for (int n : {5, 37, 90}) {
+    for (int distinct : {0, 2, 4}) {
+      const Eigen::MatrixXd c = random_costs(n, 3 * n + distinct, distinct);
+      Rng rng(n + 100 * distinct);
+      std::vector<std::vector<std::pair<int, double>>> rows(n);
+      for (int i = 0; i < n; ++i) {  // rows of 1 .. n edges: remainders of every size for the 4-lane loop
+        const int m = 1 + static_cast<int>(rng.below(static_cast<uint64_t>(n)));
+        rows[i].emplace_back(i, c(i, i));
+        for (int t = 0; t < m; ++t) {
+          const int j = static_cast<int>(rng.below(static_cast<uint64_t>(n)));
+          rows[i].emplace_back(j, c(i, j));
+        }
+      }
+      std::vector<int> match[2];
+      std::vector<double> prices[2];
+      long bids[2];
+      for (int v = 0; v < 2; ++v) {
+        set_avx2_enabled(v == 0);
+        SparseAuction s(n);
+        for (int i = 0; i < n; ++i) s.add_edges(i, rows[i]);
+        s.solve(1.0, 1e-6);
+        match[v] = s.col_of_row();
+        prices[v] = s.prices();
+        bids[v] = s.num_bids();
+      }
+      CHECK(match[0] == match[1]);
+      CHECK(prices[0] == prices[1]);
+      CHECK(bids[0] == bids[1]);
+    }
+  }
+  set_avx2_enabled(saved);
+}
+
+TEST_CASE("EdgeRows: rows stay sorted with the lowest cost per column while they grow; bad input is refused") {
+  EdgeRows g(4);
+  CHECK(g.add(2, {{3, 1.0}, {1, 2.0}, {3, 0.5}}) == 2);
+  CHECK(g.add(0, {{0, 1.0}}) == 1);
+  for (int t = 0; t < 20; ++t) CHECK(g.add(2, {{t % 4, 1.0 + t}}) == (t == 0 || t == 2 ? 1 : 0));  // moves, regrows
+  REQUIRE(g.size(2) == 4);
+  CHECK(std::vector<int>(g.cols(2), g.cols(2) + 4) == std::vector<int>{0, 1, 2, 3});
+  CHECK(g.cost(2, 3) == 0.5);   // the lowest of 1.0, 0.5 and the later 4.0, 8.0, ...
+  CHECK(g.cost(2, 0) == 1.0);
+  CHECK(g.cost(2, 2) == 3.0);
+  CHECK(g.cost(0, 0) == 1.0);   // row 0 untouched by row 2's moves
+  CHECK(g.num_edges() == 5);
+  CHECK_THROWS_AS(g.add(1, {{4, 1.0}}), InvalidInput);
+  CHECK_THROWS_AS(g.add(1, {{0, std::nan("")}}), InvalidInput);
+  CHECK_THROWS_AS(EdgeRows(2, {0, 2, 3}, {1, 0, 1}, {1.0, 1.0, 1.0}), InvalidInput);  // row 0 not sorted
+  const EdgeRows h(2, {0, 2, 3}, {0, 1, 1}, {1.0, 2.0, 3.0});
+  CHECK(h.cost(0, 1) == 2.0);
+  CHECK(h.cost(1, 1) == 3.0);
 }

@@ -50,6 +50,8 @@ TEST_CASE("vectorised kernels: AVX2 and portable versions give identical results
   CHECK(e1.total == e2.total);
   CHECK(e1.match == e2.match);
   CHECK(e1.gap_bound == e2.gap_bound);
+  CHECK(e1.bids == e2.bids);  // the auction's 4-lane bid scan makes the same bids
+  CHECK(e1.path_scans == e2.path_scans);
   CHECK(i1 == i2);
   CHECK(d1 == d2);
   // and the EMD is the optimum (brute-force Hungarian) in both cases
