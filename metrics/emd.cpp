@@ -319,16 +319,12 @@ EdgeRows candidate_graph(const Points& a, const Points& b, const Box3& box, int 
   const Sites sa(a), sb(b);
   const int na = sa.count(), nb = sb.count();
   const int kf = std::min(k, nb), kb = std::min(k, na);
-  std::vector<uint32_t> fwd(static_cast<size_t>(na) * kf), bwd(static_cast<size_t>(nb) * kb);
+  std::vector<uint32_t> fwd, bwd;  // fwd[s * kf + e]: e-th nearest site of b to site s of a; bwd the reverse
   {
     const KdTree tb(sb.where, "EMD: second point set"), ta(sa.where, "EMD: first point set");
-    tbb::parallel_for(tbb::blocked_range<int>(0, std::max(na, nb), 64), [&](const tbb::blocked_range<int>& r) {
-      std::vector<double> d2(static_cast<size_t>(std::max(kf, kb)));
-      for (int i = r.begin(); i != r.end(); ++i) {
-        if (i < na) tb.knn(sa.where.row(i).transpose(), kf, fwd.data() + static_cast<size_t>(i) * kf, d2.data());
-        if (i < nb) ta.knn(sb.where.row(i).transpose(), kb, bwd.data() + static_cast<size_t>(i) * kb, d2.data());
-      }
-    });
+    const std::vector<uint32_t> order_a = ta.leaf_order(), order_b = tb.leaf_order();
+    tb.knn_batch(sa.where, kf, fwd, &order_a);
+    ta.knn_batch(sb.where, kb, bwd, &order_b);
   }
   const std::vector<int> oa = morton_order(a, box), ob = morton_order(b, box);
   // copies of `from` (m of them) against copies of `to` (w): the r-th copy gets c consecutive copies of `to`

@@ -7,6 +7,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 namespace sdfkit::metrics {
 namespace {
 
@@ -20,6 +24,17 @@ struct RowsAdaptor {
   bool kdtree_get_bbox(Bbox& /*unused*/) const {
     return false;
   }
+};
+
+// nanoflann's k-NN result set with a cap on the radius: worstDist() is never above `cap` (squared). With a cap
+// at least the final k-th distance, the search keeps exactly the points it would keep without one.
+class CappedKnn : public nanoflann::KNNResultSet<double, uint32_t> {
+ public:
+  CappedKnn(size_t k, double cap) : KNNResultSet(k), cap_(cap) {}
+  [[nodiscard]] double worstDist() const { return std::min(KNNResultSet::worstDist(), cap_); }
+
+ private:
+  double cap_;
 };
 
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, RowsAdaptor>, RowsAdaptor, 3,
@@ -115,6 +130,44 @@ int KdTree::knn(const Vec3& q, int k, uint32_t* index, double* squared_distance)
   const double query[3] = {q.x(), q.y(), q.z()};
   impl_->tree.findNeighbors(result, query, nanoflann::SearchParams());
   return static_cast<int>(result.size());
+}
+
+void KdTree::knn_batch(const Points& queries, int k, std::vector<uint32_t>& index,
+                       const std::vector<uint32_t>* order) const {
+  const Eigen::Index n = queries.rows();
+  require(k >= 1 && k <= points_.rows(), "KdTree::knn_batch: k must be in [1, size]");
+  require(order == nullptr || static_cast<Eigen::Index>(order->size()) == n, "KdTree::knn_batch: order size mismatch");
+  const auto uk = static_cast<size_t>(k);
+  index.resize(static_cast<size_t>(n) * uk);
+  constexpr Eigen::Index block = 256;
+  const Eigen::Index blocks = (n + block - 1) / block;
+  tbb::parallel_for(Eigen::Index(0), blocks, [&](Eigen::Index b) {
+    std::vector<double> d2(uk);
+    double prev_q[3] = {0, 0, 0}, prev_kth = 0;
+    bool have_prev = false;
+    for (Eigen::Index t = b * block; t < std::min(n, (b + 1) * block); ++t) {
+      const Eigen::Index i = order != nullptr ? static_cast<Eigen::Index>((*order)[t]) : t;
+      const double q[3] = {queries(i, 0), queries(i, 1), queries(i, 2)};
+      double cap = std::numeric_limits<double>::infinity();
+      if (have_prev) {
+        const double dx = q[0] - prev_q[0], dy = q[1] - prev_q[1], dz = q[2] - prev_q[2];
+        const double r = std::sqrt(prev_kth) + std::sqrt(dx * dx + dy * dy + dz * dz);
+        cap = r * r * (1 + 1e-9) + 1e-300;  // outward: rounding must not cut the k-th point off
+      }
+      uint32_t* out = index.data() + static_cast<size_t>(i) * uk;
+      CappedKnn result(uk, cap);
+      result.init(out, d2.data());
+      impl_->tree.findNeighbors(result, q, nanoflann::SearchParams());
+      if (result.size() < uk) {  // cannot happen (the cap holds k points), but never return fewer
+        CappedKnn again(uk, std::numeric_limits<double>::infinity());
+        again.init(out, d2.data());
+        impl_->tree.findNeighbors(again, q, nanoflann::SearchParams());
+      }
+      std::copy(q, q + 3, prev_q);
+      prev_kth = d2[uk - 1];
+      have_prev = true;
+    }
+  });
 }
 
 }  // namespace sdfkit::metrics

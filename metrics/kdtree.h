@@ -36,6 +36,15 @@ class KdTree {
   [[nodiscard]] std::vector<std::pair<int, double>> knn(const Vec3& q, int k) const;
   /// The same into caller buffers of k entries (no allocation); returns how many were found (min(k, size)).
   int knn(const Vec3& q, int k, uint32_t* index, double* squared_distance) const;
+  /// k nearest points of every query row (k <= size()): index[q * k + r] is the r-th nearest of query q, the
+  /// same as knn(query q, k) gives. Queries are visited in `order` when given (spatially coherent, e.g. another
+  /// tree's leaf_order()) in fixed blocks of 256, in parallel; each search after the first of a block starts
+  /// with a radius from the previous query (its k-th distance plus the distance between the two queries: it
+  /// holds k points, so it bounds this query's k-th distance), which prunes far subtrees before k points are
+  /// found. Points within that radius are visited in the same order as without it, so results are the same
+  /// (and a query that found fewer than k points inside it would be searched again without one).
+  void knn_batch(const Points& queries, int k, std::vector<uint32_t>& index,
+                 const std::vector<uint32_t>* order = nullptr) const;
 
  private:
   struct Impl;

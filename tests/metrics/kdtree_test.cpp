@@ -70,3 +70,38 @@ TEST_CASE("KD-tree refuses empty and non-finite sets") {
   p(3, 1) = std::numeric_limits<double>::infinity();
   CHECK_THROWS_WITH_AS(KdTree(p, "gt.xyz"), doctest::Contains("gt.xyz"), InvalidInput);
 }
+
+// knn_batch starts each search with a radius from the previous query; it must keep exactly the neighbours (and
+// their order, ties included) of independent searches, in any visiting order and with any thread count.
+TEST_CASE("KD-tree knn_batch equals one knn per query, ties on a lattice included") {
+  Points lattice(6 * 6 * 6, 3);  // integer lattice: many equal distances
+  for (int i = 0; i < 216; ++i) lattice.row(i) = Vec3(i % 6, (i / 6) % 6, i / 36).transpose();
+  for (const Points& set : {random_cloud(1500, 8), lattice}) {
+    const KdTree tree(set);
+    Points queries = random_cloud(700, 9, 3.0);
+    queries.topRows(216) = lattice;  // queries on lattice points: exact ties at every rank
+    const KdTree query_tree(queries);
+    const std::vector<uint32_t> order = query_tree.leaf_order();
+    for (int k : {1, 7, 24}) {
+      std::vector<uint32_t> plain, ordered, one_thread;
+      tree.knn_batch(queries, k, plain);
+      tree.knn_batch(queries, k, ordered, &order);
+      {
+        tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+        tree.knn_batch(queries, k, one_thread, &order);
+      }
+      int mismatches = 0;
+      for (Eigen::Index q = 0; q < queries.rows(); ++q) {
+        const auto ref = tree.knn(queries.row(q).transpose(), k);
+        for (int r = 0; r < k; ++r) {
+          const size_t at = static_cast<size_t>(q) * k + r;
+          mismatches += (plain[at] != static_cast<uint32_t>(ref[r].first)) + (ordered[at] != plain[at]);
+        }
+      }
+      CHECK(mismatches == 0);
+      CHECK(one_thread == ordered);
+    }
+  }
+  std::vector<uint32_t> out;
+  CHECK_THROWS_AS(KdTree(random_cloud(5, 1)).knn_batch(random_cloud(3, 2), 6, out), InvalidInput);  // k > size
+}
