@@ -337,6 +337,10 @@ EdgeRows candidate_graph(const Points& a, const Points& b, const Box3& box, int 
       for (int e = 0; e < kf; ++e) {
         const auto t = static_cast<int>(fwd[static_cast<size_t>(s) * kf + e]);
         const int m = sa.size(s), w = sb.size(t);
+        if (m == 1 && w == 1) {  // no copies (the common case): skip the divisions of spread()
+          emit(sa.member(s, 0), sb.member(t, 0));
+          continue;
+        }
         for (int r = 0; r < m; ++r)
           for (int q = 0, x; (x = spread(m, w, r, q)) >= 0; ++q) emit(sa.member(s, r), sb.member(t, x));
       }
@@ -344,6 +348,10 @@ EdgeRows candidate_graph(const Points& a, const Points& b, const Box3& box, int 
       for (int e = 0; e < kb; ++e) {
         const auto s = static_cast<int>(bwd[static_cast<size_t>(t) * kb + e]);
         const int w = sb.size(t), m = sa.size(s);
+        if (m == 1 && w == 1) {
+          emit(sa.member(s, 0), sb.member(t, 0));
+          continue;
+        }
         for (int r = 0; r < w; ++r)
           for (int q = 0, x; (x = spread(w, m, r, q)) >= 0; ++q) emit(sa.member(s, x), sb.member(t, r));
       }
