@@ -189,6 +189,79 @@ bool MeshDistance::segment_may_cross(const Vec3& a, const Vec3& b) const {
   return false;
 }
 
+bool MeshDistance::ray_winding(const Vec3& p, const Vec3& dir, int* winding) const {
+  const double len = dir.norm();
+  if (!(len > 0) || !p.allFinite()) return false;
+  const Vec3 d = dir / len;
+  const double scale = std::max(1.0, p.cwiseAbs().maxCoeff());
+  const double margin = 1e-9 * scale;
+  Vec3 inv;
+  for (int k = 0; k < 3; ++k) inv[k] = d[k] != 0 ? 1.0 / d[k] : std::numeric_limits<double>::infinity();
+  int sum = 0;
+  int32_t stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const auto& node = bvh_.nodes[static_cast<size_t>(stack[--top])];
+    // Slab test of the ray against the node's box grown by `margin`.
+    double t0 = 0, t1 = std::numeric_limits<double>::infinity();
+    bool miss = false;
+    for (int k = 0; k < 3 && !miss; ++k) {
+      const double lo = node.box.min()[k] - margin, hi = node.box.max()[k] + margin;
+      if (d[k] == 0) {
+        miss = p[k] < lo || p[k] > hi;
+        continue;
+      }
+      double ta = (lo - p[k]) * inv[k], tb = (hi - p[k]) * inv[k];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+      miss = t0 > t1;
+    }
+    if (miss) continue;
+    if (!node.leaf()) {
+      stack[top++] = node.left;
+      stack[top++] = node.right;
+      continue;
+    }
+    for (int32_t s = node.begin; s < node.end; ++s) {
+      const auto& t = bvh_.corners[static_cast<size_t>(s)];
+      const Vec3 e1 = t[1] - t[0], e2 = t[2] - t[0];
+      const Vec3 n = e1.cross(e2);
+      const double area = n.norm();
+      if (!(area > 0)) {
+        // Degenerate: contributes nothing unless the ray touches it (then the count is not certain).
+        const Vec3 q = closest_point_on_triangle(p, t[0], t[1], t[2]);
+        const double along = (q - p).dot(d);
+        if (along >= -margin && (q - p - along * d).norm() <= margin) return false;
+        continue;
+      }
+      const Vec3 pv = d.cross(e2);
+      const double det = e1.dot(pv);  // = -d . n
+      const Vec3 tv = p - t[0];
+      if (std::abs(det) <= 1e-9 * area) {
+        // Parallel to the plane: uncertain only when the ray runs in the plane.
+        if (std::abs(tv.dot(n)) <= 1e-9 * area * std::max(1.0, tv.norm())) return false;
+        continue;
+      }
+      const double inv_det = 1.0 / det;
+      const double u = tv.dot(pv) * inv_det;
+      const double eps = 1e-7;
+      if (u < -eps || u > 1 + eps) continue;
+      const Vec3 qv = tv.cross(e1);
+      const double v = d.dot(qv) * inv_det;
+      if (v < -eps || u + v > 1 + eps) continue;
+      const double tt = e2.dot(qv) * inv_det;
+      if (tt < -margin) continue;
+      // Within round-off of the triangle's border, or of p itself: not certain.
+      if (u < eps || v < eps || u + v > 1 - eps || tt <= margin) return false;
+      sum += det < 0 ? 1 : -1;
+    }
+  }
+  *winding = sum;
+  return true;
+}
+
 Eigen::VectorXd MeshDistance::query(const Points& P) const {
   Eigen::VectorXd d(P.rows());
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, P.rows(), 256), [&](const auto& r) {

@@ -29,6 +29,12 @@ class MeshDistance {
   /// True when the segment [a, b] may touch a triangle: conservative (touching an edge or a vertex, or lying
   /// within round-off of a triangle counts as a hit), so false means that no surface lies between a and b.
   [[nodiscard]] bool segment_may_cross(const Vec3& a, const Vec3& b) const;
+  /// Winding number of p from the signed crossings of the ray p + t dir, t > 0 (+1 where the ray leaves through
+  /// a triangle's front side, -1 where it enters): exact for meshes whose every edge is crossed as often in one
+  /// direction as in the other (closed parts), and one BVH walk instead of a winding-number hierarchy. False
+  /// (and `winding` untouched) when the answer is not certain: the ray passes within round-off of an edge or a
+  /// vertex, runs in a triangle's plane, or p lies on a triangle; try another direction.
+  [[nodiscard]] bool ray_winding(const Vec3& p, const Vec3& dir, int* winding) const;
   /// Unsigned distances of every row of P, in parallel (TBB).
   [[nodiscard]] Eigen::VectorXd query(const Points& P) const;
 

@@ -14,19 +14,57 @@ struct HalfEdge {
   uint64_t key;   ///< (min vertex, max vertex)
   int32_t face;
   int8_t forward;  ///< 1 when the face traverses min -> max
+  int8_t corner;   ///< the face's edge: corner -> corner + 1
   bool operator<(const HalfEdge& o) const { return key < o.key || (key == o.key && face < o.face); }
 };
 
+/// Half-edges in (key, face) order. A counting sort on the smaller vertex (stable: faces stay in increasing
+/// order), then an insertion sort on the larger vertex inside each vertex's short list: linear time, the same
+/// order as a comparison sort on (key, face).
 std::vector<HalfEdge> sorted_half_edges(const Mesh& mesh) {
-  std::vector<HalfEdge> h;
-  h.reserve(static_cast<size_t>(mesh.F.rows()) * 3);
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+  const auto nf = static_cast<size_t>(mesh.F.rows());
+  const auto nv = static_cast<size_t>(mesh.V.rows());
+  if (nf > 0 && (mesh.F.minCoeff() < 0 || static_cast<size_t>(mesh.F.maxCoeff()) >= nv)) {
+    // Indices outside the vertex range (an unvalidated mesh): a comparison sort, which needs no range.
+    std::vector<HalfEdge> h;
+    h.reserve(3 * nf);
+    for (size_t f = 0; f < nf; ++f)
+      for (int k = 0; k < 3; ++k) {
+        const auto a = static_cast<uint32_t>(mesh.F(static_cast<Eigen::Index>(f), k));
+        const auto b = static_cast<uint32_t>(mesh.F(static_cast<Eigen::Index>(f), (k + 1) % 3));
+        h.push_back({(static_cast<uint64_t>(std::min(a, b)) << 32) | std::max(a, b), static_cast<int32_t>(f),
+                     static_cast<int8_t>(a < b), static_cast<int8_t>(k)});
+      }
+    std::sort(h.begin(), h.end());
+    return h;
+  }
+  std::vector<uint32_t> start(nv + 1, 0);
+  for (size_t f = 0; f < nf; ++f)
     for (int k = 0; k < 3; ++k) {
-      const auto a = static_cast<uint32_t>(mesh.F(f, k)), b = static_cast<uint32_t>(mesh.F(f, (k + 1) % 3));
-      const uint32_t lo = std::min(a, b), hi = std::max(a, b);
-      h.push_back({(static_cast<uint64_t>(lo) << 32) | hi, static_cast<int32_t>(f), static_cast<int8_t>(a < b)});
+      const auto a = static_cast<uint32_t>(mesh.F(static_cast<Eigen::Index>(f), k));
+      const auto b = static_cast<uint32_t>(mesh.F(static_cast<Eigen::Index>(f), (k + 1) % 3));
+      ++start[std::min(a, b) + 1];
     }
-  std::sort(h.begin(), h.end());
+  for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<HalfEdge> h(3 * nf);
+  std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+  for (size_t f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const auto a = static_cast<uint32_t>(mesh.F(static_cast<Eigen::Index>(f), k));
+      const auto b = static_cast<uint32_t>(mesh.F(static_cast<Eigen::Index>(f), (k + 1) % 3));
+      const uint32_t lo = std::min(a, b), hi = std::max(a, b);
+      h[fill[lo]++] = {(static_cast<uint64_t>(lo) << 32) | hi, static_cast<int32_t>(f), static_cast<int8_t>(a < b),
+                       static_cast<int8_t>(k)};
+    }
+  for (size_t v = 0; v < nv; ++v) {
+    // Stable insertion sort by key: equal keys keep their (increasing) face order.
+    for (uint32_t i = start[v] + 1; i < start[v + 1]; ++i) {
+      const HalfEdge x = h[i];
+      uint32_t j = i;
+      for (; j > start[v] && h[j - 1].key > x.key; --j) h[j] = h[j - 1];
+      h[j] = x;
+    }
+  }
   return h;
 }
 
@@ -143,6 +181,34 @@ bool is_closed_oriented(const Mesh& mesh) {
     if (i + 1 >= h.size() || h[i].key != h[i + 1].key) return false;
     if (i + 2 < h.size() && h[i + 2].key == h[i].key) return false;
     if (h[i].forward == h[i + 1].forward) return false;
+  }
+  return true;
+}
+
+std::vector<std::array<int32_t, 3>> closed_edge_neighbours(const Mesh& mesh) {
+  if (mesh.F.rows() == 0) return {};
+  const std::vector<HalfEdge> h = sorted_half_edges(mesh);
+  std::vector<std::array<int32_t, 3>> out(static_cast<size_t>(mesh.F.rows()));
+  for (size_t i = 0; i < h.size(); i += 2) {
+    // Exactly two half-edges per key, in opposite directions (is_closed_oriented).
+    if (i + 1 >= h.size() || h[i].key != h[i + 1].key) return {};
+    if (i + 2 < h.size() && h[i + 2].key == h[i].key) return {};
+    if (h[i].forward == h[i + 1].forward) return {};
+    out[static_cast<size_t>(h[i].face)][static_cast<size_t>(h[i].corner)] = h[i + 1].face;
+    out[static_cast<size_t>(h[i + 1].face)][static_cast<size_t>(h[i + 1].corner)] = h[i].face;
+  }
+  return out;
+}
+
+bool edges_balanced(const Mesh& mesh) {
+  const std::vector<HalfEdge> h = sorted_half_edges(mesh);
+  for (size_t i = 0; i < h.size();) {
+    int sum = 0;
+    size_t j = i;
+    for (; j < h.size() && h[j].key == h[i].key; ++j) sum += h[j].forward ? 1 : -1;
+    // Edges from a vertex to itself (degenerate faces) cross nothing.
+    if (sum != 0 && (h[i].key >> 32) != (h[i].key & 0xffffffffULL)) return false;
+    i = j;
   }
   return true;
 }

@@ -4,6 +4,10 @@
 
 #include "core/types.h"
 
+#include <array>
+#include <cstdint>
+#include <vector>
+
 namespace sdfkit {
 
 struct OrientationReport {
@@ -22,5 +26,14 @@ Mesh orient_consistently(const Mesh& mesh, OrientationReport* report = nullptr);
 /// True when every undirected edge is used by exactly two faces in opposite directions (closed, oriented,
 /// edge-manifold). Says nothing about self-intersections.
 bool is_closed_oriented(const Mesh& mesh);
+
+/// For a closed, consistently oriented mesh (is_closed_oriented): per face and edge k (corner k -> corner k + 1),
+/// the face across that edge. Empty when the mesh is not closed and consistently oriented. Linear time.
+std::vector<std::array<int32_t, 3>> closed_edge_neighbours(const Mesh& mesh);
+
+/// True when every undirected edge is traversed as often in one direction as in the other (closed parts,
+/// possibly non-manifold, overlapping or self-intersecting; edges of zero length ignored). False when the mesh
+/// has boundary edges.
+bool edges_balanced(const Mesh& mesh);
 
 }  // namespace sdfkit

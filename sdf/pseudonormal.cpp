@@ -8,13 +8,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numeric>
-#include <unordered_map>
 
 namespace sdfkit {
 
 PseudoNormals::PseudoNormals(const Mesh& mesh) : F_(mesh.F) {
-  require(is_closed_oriented(mesh), "pseudo-normals: the mesh is not closed and consistently oriented");
+  // The face across each edge (empty unless closed and consistently oriented).
+  const std::vector<std::array<int32_t, 3>> across = closed_edge_neighbours(mesh);
+  require(!across.empty(), "pseudo-normals: the mesh is not closed and consistently oriented");
   const auto nf = static_cast<size_t>(mesh.F.rows());
   face_normal_.resize(nf);
   vertex_normal_.assign(static_cast<size_t>(mesh.V.rows()), Vec3::Zero());
@@ -33,21 +35,9 @@ PseudoNormals::PseudoNormals(const Mesh& mesh) : F_(mesh.F) {
       vertex_normal_[static_cast<size_t>(mesh.F(fi, k))] += angle * face_normal_[f];
     }
   }
-  // Directed edge (i, j) -> face; the twin (j, i) is the neighbour across the edge.
-  std::unordered_map<uint64_t, int32_t> edge_face;
-  edge_face.reserve(3 * nf);
-  auto key = [](int32_t i, int32_t j) { return (static_cast<uint64_t>(static_cast<uint32_t>(i)) << 32) | static_cast<uint32_t>(j); };
   for (size_t f = 0; f < nf; ++f)
     for (int k = 0; k < 3; ++k)
-      edge_face[key(mesh.F(static_cast<Eigen::Index>(f), k), mesh.F(static_cast<Eigen::Index>(f), (k + 1) % 3))] =
-          static_cast<int32_t>(f);
-  for (size_t f = 0; f < nf; ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int32_t i = mesh.F(static_cast<Eigen::Index>(f), k), j = mesh.F(static_cast<Eigen::Index>(f), (k + 1) % 3);
-      const auto twin = edge_face.find(key(j, i));
-      edge_normal_[f][k] = face_normal_[f] + (twin != edge_face.end() ? face_normal_[static_cast<size_t>(twin->second)]
-                                                                       : face_normal_[f]);
-    }
+      edge_normal_[f][k] = face_normal_[f] + face_normal_[static_cast<size_t>(across[f][static_cast<size_t>(k)])];
 }
 
 Vec3 PseudoNormals::normal(int32_t face, int region) const {
@@ -91,8 +81,11 @@ bool pseudo_normal_agrees_with_winding(const Mesh& mesh, const MeshDistance& dis
   return pseudo_normal_agrees_with_winding(mesh, dist, normals, spacing, WindingNumber(mesh), count);
 }
 
-bool pseudo_normal_agrees_with_winding(const Mesh& mesh, const MeshDistance& dist, const PseudoNormals& normals,
-                                       double spacing, const WindingNumber& wn, int count) {
+namespace {
+/// The agreement guard with winding numbers from `wn(p)`; the test points do not depend on `wn`.
+template <typename WindingFn>
+bool agrees(const Mesh& mesh, const MeshDistance& dist, const PseudoNormals& normals, double spacing, int count,
+            const WindingFn& wn) {
   Rng rng(0x70736e);
   std::vector<double> cdf(static_cast<size_t>(mesh.F.rows()));
   double total = 0;
@@ -111,11 +104,31 @@ bool pseudo_normal_agrees_with_winding(const Mesh& mesh, const MeshDistance& dis
     const Vec3 p = x + dir * (spacing * rng.uniform(0.5, 4.0));
     const ClosestPoint cp = dist.closest(p);
     if (cp.face < 0 || cp.distance < 1e-9) continue;
-    const double w = wn(p);
+    const double w = wn(p, i);
     if (std::abs(w - 0.5) < 0.25) return false;  // a closed, non-intersecting surface has w in {0, 1}
     if ((w > 0.5) != normals.inside(p, cp)) return false;
   }
   return true;
+}
+}  // namespace
+
+bool pseudo_normal_agrees_with_winding(const Mesh& mesh, const MeshDistance& dist, const PseudoNormals& normals,
+                                       double spacing, const WindingNumber& wn, int count) {
+  return agrees(mesh, dist, normals, spacing, count, [&](const Vec3& p, int) { return wn(p); });
+}
+
+bool pseudo_normal_agrees_with_rays(const Mesh& mesh, const MeshDistance& dist, const PseudoNormals& normals,
+                                    double spacing, const std::function<const WindingNumber&()>& fallback, int count) {
+  return agrees(mesh, dist, normals, spacing, count, [&](const Vec3& p, int i) {
+    // Random directions (deterministic per test point): a ray grazing an edge is rare and then retried.
+    Rng rng = Rng::derived(0x72617973, static_cast<uint64_t>(i));
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      const Vec3 dir(rng.normal(), rng.normal(), rng.normal());
+      int w = 0;
+      if (dist.ray_winding(p, dir, &w)) return static_cast<double>(w);
+    }
+    return fallback()(p);
+  });
 }
 
 }  // namespace sdfkit

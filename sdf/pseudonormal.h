@@ -8,6 +8,7 @@
 #include "sdf/distance.h"
 
 #include <array>
+#include <functional>
 #include <vector>
 
 namespace sdfkit {
@@ -47,5 +48,12 @@ class WindingNumber;
 /// Same, with the mesh's winding-number hierarchy already built.
 bool pseudo_normal_agrees_with_winding(const Mesh& mesh, const MeshDistance& dist, const PseudoNormals& normals,
                                        double spacing, const WindingNumber& wn, int count = 256);
+/// Same test points, with the winding number of each from signed ray crossings (MeshDistance::ray_winding):
+/// exact and without a winding-number hierarchy, valid when every edge of `mesh` is balanced (closed parts,
+/// as pseudo_normal_sign_applies requires). A point whose rays all graze an edge asks `fallback` for the
+/// hierarchy (built only then).
+bool pseudo_normal_agrees_with_rays(const Mesh& mesh, const MeshDistance& dist, const PseudoNormals& normals,
+                                    double spacing, const std::function<const WindingNumber&()>& fallback,
+                                    int count = 256);
 
 }  // namespace sdfkit

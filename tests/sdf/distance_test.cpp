@@ -1,6 +1,10 @@
+#include "core/mesh_io.h"
 #include "core/primitives.h"
 #include "core/random.h"
 #include "sdf/distance.h"
+#include "sdf/winding.h"
+
+#include <cmath>
 
 #include <doctest/doctest.h>
 
@@ -39,4 +43,38 @@ TEST_CASE("closest point on triangle: vertex, edge, face and degenerate regions"
   // Zero-area triangle (all on a line): distance to the segment.
   const Vec3 q = closest_point_on_triangle(Vec3(0.5, 1, 0), a, b, Vec3(2, 0, 0));
   CHECK((q - Vec3(0.5, 0, 0)).norm() < 1e-12);
+}
+
+TEST_CASE("ray winding: signed crossings equal the winding number of closed meshes, grazing rays refused") {
+  // Two interpenetrating closed parts (w = 2 where they overlap) and a torus (a ray may cross four sheets).
+  const Mesh two = concatenate(make_box(Vec3::Constant(-0.5), Vec3::Constant(0.1)),
+                               make_box(Vec3::Constant(-0.1), Vec3::Constant(0.5)));
+  const Mesh torus = make_torus(Vec3::Zero(), 0.55, 0.2, 40, 20);
+  for (const Mesh* m : {&two, &torus}) {
+    const MeshDistance dist(*m);
+    Rng rng(3);
+    int certain = 0, twos = 0;
+    for (int i = 0; i < 400; ++i) {
+      const Vec3 p(rng.uniform(-0.8, 0.8), rng.uniform(-0.8, 0.8), rng.uniform(-0.8, 0.8));
+      const Vec3 dir(rng.normal(), rng.normal(), rng.normal());
+      int w = -99;
+      if (!dist.ray_winding(p, dir, &w)) continue;
+      ++certain;
+      twos += w == 2;
+      CHECK(w == static_cast<int>(std::lround(WindingNumber::brute_force(*m, p))));
+    }
+    CHECK(certain >= 398);  // random directions almost never graze an edge
+    if (m == &two) CHECK(twos > 0);
+  }
+  // A ray through a box corner (a vertex shared by several triangles) or along a face is not certain.
+  const Mesh box = make_box(Vec3::Constant(-0.5), Vec3::Constant(0.5));
+  const MeshDistance dist(box);
+  int w = -99;
+  CHECK_FALSE(dist.ray_winding(Vec3::Zero(), Vec3(1, 1, 1), &w));
+  CHECK_FALSE(dist.ray_winding(Vec3(-1, 0.5, 0.2), Vec3(1, 0, 0), &w));
+  CHECK(w == -99);
+  CHECK(dist.ray_winding(Vec3(0.1, 0.2, 0.05), Vec3(0.3, 1, 0.2), &w));
+  CHECK(w == 1);
+  CHECK(dist.ray_winding(Vec3(0.9, 0.2, 0.05), Vec3(-1, 0.1, 0.2), &w));
+  CHECK(w == 0);
 }

@@ -48,3 +48,32 @@ TEST_CASE("orientation: open box stays open, outward") {
     CHECK(e1.cross(e2).dot(a) > 0);
   }
 }
+
+TEST_CASE("orientation: edge neighbours of closed meshes and balanced edges") {
+  const Mesh t = make_torus(Vec3::Zero(), 0.55, 0.2, 12, 8);
+  const auto across = closed_edge_neighbours(t);
+  REQUIRE(across.size() == static_cast<size_t>(t.F.rows()));
+  for (Eigen::Index f = 0; f < t.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      // The face across edge (a, b) holds the edge as (b, a).
+      const int32_t a = t.F(f, k), b = t.F(f, (k + 1) % 3);
+      const int32_t g = across[static_cast<size_t>(f)][static_cast<size_t>(k)];
+      REQUIRE(g >= 0);
+      CHECK(g != f);
+      bool twin = false;
+      for (int j = 0; j < 3; ++j) twin = twin || (t.F(g, j) == b && t.F(g, (j + 1) % 3) == a);
+      CHECK(twin);
+    }
+  CHECK(edges_balanced(t));
+  CHECK(closed_edge_neighbours(test::open_box()).empty());
+  CHECK_FALSE(edges_balanced(test::open_box()));
+  // Two interpenetrating closed parts: balanced, and every edge still has one neighbour. One flipped face: neither.
+  const Mesh two = concatenate(make_box(Vec3::Constant(-0.5), Vec3::Constant(0.1)),
+                               make_box(Vec3::Constant(-0.1), Vec3::Constant(0.5)));
+  CHECK(edges_balanced(two));
+  CHECK_FALSE(closed_edge_neighbours(two).empty());
+  Mesh flipped = t;
+  std::swap(flipped.F(0, 1), flipped.F(0, 2));
+  CHECK(closed_edge_neighbours(flipped).empty());
+  CHECK_FALSE(edges_balanced(flipped));
+}

@@ -52,6 +52,14 @@ TEST_CASE("pseudo-normal sign equals the brute-force winding-number sign on clos
     CHECK(at_vertex > 50);  // the test really exercises vertex and edge pseudo-normals
     CHECK(at_edge > 100);
     CHECK(pseudo_normal_agrees_with_winding(mesh, dist, normals, 0.01));
+    bool tree_built = false;
+    const auto fallback = [&]() -> const WindingNumber& {
+      tree_built = true;
+      static const WindingNumber none(make_box(Vec3::Constant(-1), Vec3::Constant(1)));
+      return none;
+    };
+    CHECK(pseudo_normal_agrees_with_rays(mesh, dist, normals, 0.01, fallback, 1000));
+    CHECK_FALSE(tree_built);  // random rays never needed the hierarchy
   }
 }
 
@@ -84,6 +92,14 @@ TEST_CASE("a self-intersecting closed one-part mesh fails the agreement guard an
   const MeshDistance dist(m);
   const PseudoNormals normals(m);
   CHECK_FALSE(pseudo_normal_agrees_with_winding(m, dist, normals, 0.02, 2000));
+  // The same guard with ray-crossing winding numbers (what MeshQueries uses for closed meshes).
+  bool tree_built = false;
+  const WindingNumber wn(m);
+  const auto fallback = [&]() -> const WindingNumber& {
+    tree_built = true;
+    return wn;
+  };
+  CHECK_FALSE(pseudo_normal_agrees_with_rays(m, dist, normals, 0.02, fallback, 2000));
   CHECK(resolve_sign_method(m, SignMethod::Auto, 0.02) == SignMethod::WindingNumber);
 }
 
