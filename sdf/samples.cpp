@@ -26,6 +26,28 @@ struct Candidate {
   float sdf;
 };
 
+/// A drawn candidate waiting for its exact query.
+struct Pending {
+  Eigen::Vector3f p;
+  int32_t face;    ///< hint: closest face of the cell's coarse centre
+  uint64_t key;    ///< Morton code of the cell (query order)
+  double value;    ///< exact signed distance (NaN: beyond the bins' reach)
+};
+
+/// Morton (Z-order) code of a voxel at 2-voxel resolution, 10 bits per axis: nearby cells get nearby codes.
+uint64_t morton_key(const openvdb::Coord& c) {
+  auto spread = [](uint64_t v) {  // 10 bits -> every third bit
+    v &= 0x3ff;
+    v = (v | (v << 16)) & 0x30000ff;
+    v = (v | (v << 8)) & 0x300f00f;
+    v = (v | (v << 4)) & 0x30c30c3;
+    v = (v | (v << 2)) & 0x9249249;
+    return v;
+  };
+  return (spread(static_cast<uint64_t>(c.x() >> 1)) << 2) | (spread(static_cast<uint64_t>(c.y() >> 1)) << 1) |
+         spread(static_cast<uint64_t>(c.z() >> 1));
+}
+
 /// Exact signed distance of a point: exact unsigned distance (BVH); the sign from the pseudo-normal at the
 /// closest feature (closed meshes), or else from the nearest voxel of the grid when the point is too far from the
 /// surface for a crossing in between, else from the winding number.
@@ -264,37 +286,51 @@ MatrixXfR disn_samples(const MeshQueries& queries, const SparseSdf& sdf, const S
         const double need = 1.1 * static_cast<double>(missing) / rate / kChunks + 1.0;
         per_chunk = static_cast<int>(std::clamp(std::ceil(need), 4.0, static_cast<double>(kChunk)));
       }
-      std::vector<std::vector<Candidate>> chunk_out(kChunks);
-      std::vector<long> chunk_evaluated(kChunks, 0);
+      // Draw and pre-filter the batch's candidates (per chunk, in order), then run the exact queries in the
+      // spatial (Morton) order of the points so that consecutive queries walk the same BVH nodes and triangles,
+      // then keep the accepted ones in the drawing order: the samples do not depend on the query order.
+      std::vector<std::vector<Pending>> chunk_pending(kChunks);
       const uint64_t batch = next_batch[b]++;
+      const double lo = s.edges[b] + s.offset, hi = s.edges[b + 1] + s.offset;
       tbb::parallel_for(0, kChunks, [&](int c) {
         Rng rng = Rng::derived(s.seed, (static_cast<uint64_t>(b + 1) << 48) + batch * kChunks + c);
         auto acc = grid.getConstAccessor();
-        const double lo = s.edges[b] + s.offset, hi = s.edges[b + 1] + s.offset;
+        auto& out = chunk_pending[static_cast<size_t>(c)];
         for (int k = 0; k < per_chunk; ++k) {
           const auto pick = static_cast<int64_t>(rng.below(static_cast<uint64_t>(cum[b].back())));
-          const Cell& cell =
-              cells[b][static_cast<size_t>(std::upper_bound(cum[b].begin(), cum[b].end(), pick) - cum[b].begin())];
+          const auto ci = static_cast<int32_t>(std::upper_bound(cum[b].begin(), cum[b].end(), pick) - cum[b].begin());
+          const Cell& cell = cells[b][static_cast<size_t>(ci)];
           const double side = cell.size;
           const Eigen::Vector3f pf(
               static_cast<float>((cell.origin.x() - off.x() - 0.5 + side * rng.uniform()) * h),
               static_cast<float>((cell.origin.y() - off.y() - 0.5 + side * rng.uniform()) * h),
               static_cast<float>((cell.origin.z() - off.z() - 0.5 + side * rng.uniform()) * h));
-          const Vec3 p = pf.cast<double>();
-          if (!may_fall_in(p, cell, acc, lo, hi)) continue;
-          ++chunk_evaluated[c];
-          const double v = exact(p, acc, reach * 1.001 + 1e-9, cell.face);
-          if (!std::isfinite(v)) continue;
-          const bool last = b == 3;
-          if (v >= lo && (v < hi || (last && v <= hi))) chunk_out[c].push_back({pf, static_cast<float>(v)});
+          if (!may_fall_in(pf.cast<double>(), cell, acc, lo, hi)) continue;
+          out.push_back({pf, cell.face, morton_key(cell.origin), 0.0});
         }
       });
-      tried[b] += static_cast<long>(per_chunk) * kChunks;
-      for (int c = 0; c < kChunks; ++c) {
-        evaluated[b] += chunk_evaluated[c];
-        for (const Candidate& cand : chunk_out[c])
-          if (static_cast<long>(accepted[b].size()) < want[b]) accepted[b].push_back(cand);
+      std::vector<Pending> pending;
+      for (auto& cp : chunk_pending) pending.insert(pending.end(), cp.begin(), cp.end());
+      chunk_pending.clear();
+      std::vector<uint64_t> order(pending.size());  // (Morton key of the cell, drawing index): a total order
+      for (size_t i = 0; i < pending.size(); ++i) order[i] = (pending[i].key << 20) | i;
+      std::sort(order.begin(), order.end());
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, order.size(), 64), [&](const auto& r) {
+        auto acc = grid.getConstAccessor();
+        for (size_t k = r.begin(); k != r.end(); ++k) {
+          Pending& q = pending[static_cast<size_t>(order[k] & ((uint64_t{1} << 20) - 1))];
+          q.value = exact(q.p.cast<double>(), acc, reach * 1.001 + 1e-9, q.face);
+        }
+      });
+      evaluated[b] += static_cast<long>(pending.size());
+      for (const Pending& q : pending) {
+        const double v = q.value;
+        if (!std::isfinite(v)) continue;
+        const bool last = b == 3;
+        if (v >= lo && (v < hi || (last && v <= hi)) && static_cast<long>(accepted[b].size()) < want[b])
+          accepted[b].push_back({q.p, static_cast<float>(v)});
       }
+      tried[b] += static_cast<long>(per_chunk) * kChunks;
       if (tried[b] >= cap && static_cast<long>(accepted[b].size()) < want[b]) exhausted[b] = true;
     }
   };
