@@ -68,6 +68,7 @@ std::function<int()> setup_recon(CLI::App& app) {
     ReconSettings s;
     bool json = false, no_preview = false;
     int jobs = 1;
+    std::string refine_mode = "joint";
   };
   auto o = std::make_shared<Opts>();
   o->model = std::string(SDFKIT_SOURCE_DIR) + "/data/models/sdf.ckpt";
@@ -99,6 +100,40 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "drop mesh components with fewer faces than this fraction of the largest (DISN: 0.3)")
       ->capture_default_str();
   app.add_option("--format", o->format, "mesh format in folder mode: obj or ply")->capture_default_str();
+  app.add_option("--refine-camera", o->s.refine_rounds,
+                 "rounds of test-time camera refinement: reconstruct, align the mesh's silhouette to the input's "
+                 "object mask (alpha, --mask, else non-white pixels) by turning the camera about the object (up to "
+                 "--refine-max-deg per axis) and changing its distance (up to --refine-max-distance), reconstruct "
+                 "again with the refined camera; 0 = off (docs/recon.md)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 5));
+  app.add_option("--refine-res", o->s.refine_resolution, "grid resolution of the meshes refinement aligns")
+      ->capture_default_str();
+  app.add_option("--refine-mode", o->refine_mode,
+                 "joint: reconstruct again (at --refine-res) for every candidate camera and score that mesh through "
+                 "that camera; mesh: align the one mesh reconstructed with the estimate (cheaper, weaker)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"joint", "mesh"}));
+  app.add_flag("!--refine-keep-distance", o->s.refine.refine_distance,
+               "refine the rotation only (the camera distance stays as estimated)");
+  app.add_option("--refine-sweep", o->s.refine.sweep_azimuth_deg,
+                 "coarse stage before the local search: try azimuth turns of the camera up to +-this many degrees "
+                 "(0 = none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 180.0));
+  app.add_option("--refine-sweep-step", o->s.refine.sweep_step_deg, "step of the azimuth sweep in degrees")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 90.0));
+  app.add_option("--refine-evals", o->s.refine.max_evaluations, "objective evaluations per refinement round")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--refine-max-deg", o->s.refine.max_rotation_deg, "refinement bound of each rotation component")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 90.0));
+  app.add_option("--refine-max-distance", o->s.refine.max_distance_change,
+                 "refinement bound of the camera distance: ratio within [1/(1+c), 1+c]")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 1.0));
   app.add_flag("--no-preview", o->no_preview, "do not write the preview PNG");
   app.add_option("-j,--jobs", o->jobs, "images reconstructed in parallel (each also uses the worker threads)")
       ->capture_default_str()
@@ -111,6 +146,7 @@ std::function<int()> setup_recon(CLI::App& app) {
     if (o->format != "obj" && o->format != "ply") throw InvalidInput("--format " + o->format + ": use obj or ply");
     if (!o->mask.empty() && inputs.size() != 1) throw InvalidInput("--mask applies to a single input image");
     o->s.preview = !o->no_preview;
+    o->s.refine_joint = o->refine_mode == "joint";
     const bool estimate = o->cam == "est";
     const bool sidecar = o->cam == "sidecar";
     Camera fixed_camera;
@@ -148,6 +184,18 @@ std::function<int()> setup_recon(CLI::App& app) {
         if (o->s.preview) j["preview"] = preview_path;
         j["camera"] = camera_to_json(r.camera);
         j["camera_source"] = r.camera_estimated ? "estimated" : "given";
+        if (!r.refinements.empty()) {
+          Json rounds = Json::array();
+          for (const CameraRefineResult& rr : r.refinements)
+            rounds.push_back({{"iou_before", rr.iou_before},
+                              {"iou_after", rr.iou_after},
+                              {"rotation_deg", {rr.rotation_deg.x(), rr.rotation_deg.y(), rr.rotation_deg.z()}},
+                              {"distance_ratio", rr.distance_ratio},
+                              {"sweep_azimuth_deg", rr.sweep_azimuth_deg},
+                              {"evaluations", rr.evaluations},
+                              {"seconds", rr.seconds}});
+          j["camera_refinement"] = {{"initial_camera", camera_to_json(r.initial_camera)}, {"rounds", rounds}};
+        }
         j["evaluations"] = r.evaluations;
         j["vertices"] = r.mesh.num_vertices();
         j["faces"] = r.mesh.num_faces();
@@ -157,7 +205,7 @@ std::function<int()> setup_recon(CLI::App& app) {
         const ReconTimings& t = r.timings;
         j["seconds"] = {{"prepare", t.prepare}, {"pose", t.pose},       {"encode", t.encode},
                         {"field", t.field},     {"extract", t.extract}, {"cleanup", t.cleanup},
-                        {"preview", t.preview}, {"total", t.total}};
+                        {"refine", t.refine},   {"preview", t.preview}, {"total", t.total}};
         if (!o->json) {
           std::lock_guard<std::mutex> lock(io);
           std::cout << in << " -> " << mesh_path << " (" << r.mesh.num_faces() << " faces, " << r.evaluations

@@ -41,7 +41,56 @@ void paste_rgb_on_white(const Image& rgba, Image& dst, int x0) {
     }
 }
 
+/// Object coverage of a mask pixel: its alpha when it has one, else its luminance.
+float mask_value(const Image& mask, int x, int y) {
+  float m = 0;
+  if (mask.channels == 2 || mask.channels == 4)
+    m = mask.at(x, y, mask.channels - 1);
+  else
+    m = mask.channels >= 3 ? (mask.at(x, y, 0) + mask.at(x, y, 1) + mask.at(x, y, 2)) / 3.f : mask.at(x, y, 0);
+  return std::clamp(m, 0.f, 1.f);
+}
+
+/// A 1-channel coverage function of the source pixels, resampled to the network's 137 x 137 like the image.
+template <class F>
+Image resample_coverage(int width, int height, const F& value) {
+  Image grey(width, height, 3);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const float v = value(x, y);
+      for (int c = 0; c < 3; ++c) grey.at(x, y, c) = v;
+    }
+  const Eigen::VectorXf v = network_image(grey);
+  Image out(kNetImageSize, kNetImageSize, 1);
+  for (int i = 0; i < kNetImageSize * kNetImageSize; ++i) out.data[i] = std::clamp(v[i], 0.f, 1.f);
+  return out;
+}
+
 }  // namespace
+
+Image input_foreground(const Eigen::VectorXf& input) {
+  const int n = kNetImageSize * kNetImageSize;
+  require(input.size() == 3 * n, "input_foreground: network input must be 3 x 137 x 137");
+  Image out(kNetImageSize, kNetImageSize, 1);
+  for (int i = 0; i < n; ++i) {
+    float d = 0;
+    for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(input[c * n + i] - kNetBackground));
+    out.data[i] = d > 0.05f ? 1.f : 0.f;
+  }
+  return out;
+}
+
+Image recon_silhouette(const Image& image, const Image* mask, const Eigen::VectorXf& input) {
+  if (mask != nullptr) {
+    require(!mask->empty() && mask->width == image.width && mask->height == image.height,
+            "recon_silhouette: the mask must have the image's size");
+    return resample_coverage(mask->width, mask->height, [&](int x, int y) { return mask_value(*mask, x, y); });
+  }
+  if (image.channels == 2 || image.channels == 4)
+    return resample_coverage(image.width, image.height,
+                             [&](int x, int y) { return std::clamp(image.at(x, y, image.channels - 1), 0.f, 1.f); });
+  return input_foreground(input);
+}
 
 Eigen::VectorXf prepare_recon_input(const Image& image, const Image* mask, const ReconSettings& settings,
                                     const std::string& what) {
@@ -57,12 +106,7 @@ Eigen::VectorXf prepare_recon_input(const Image& image, const Image* mask, const
     for (int y = 0; y < image.height; ++y)
       for (int x = 0; x < image.width; ++x) {
         for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = image.at(x, y, image.channels >= 3 ? c : 0);
-        float m = 0;  // mask luminance (or its alpha when it has one)
-        if (mask->channels == 2 || mask->channels == 4)
-          m = mask->at(x, y, mask->channels - 1);
-        else
-          m = mask->channels >= 3 ? (mask->at(x, y, 0) + mask->at(x, y, 1) + mask->at(x, y, 2)) / 3.f : mask->at(x, y, 0);
-        rgba.at(x, y, 3) = std::clamp(m, 0.f, 1.f);
+        rgba.at(x, y, 3) = mask_value(*mask, x, y);
       }
     v = network_image(rgba);
   } else {
@@ -109,20 +153,69 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
                                const ReconSettings& settings, const std::string& what) const {
   const auto t0 = Clock::now();
   const Eigen::VectorXf input = prepare_recon_input(image, mask, settings, what);
+  Image silhouette;
+  if (settings.refine_rounds > 0) silhouette = recon_silhouette(image, mask, input);
   const double prep = since(t0);
-  ReconResult r = run_input(input, camera, settings, what);
+  ReconResult r = run_input(input, camera, settings, what, settings.refine_rounds > 0 ? &silhouette : nullptr);
   r.timings.prepare = prep;
   r.timings.total += prep;
   return r;
 }
 
+struct Reconstructor::MeshStats {
+  long evaluations = 0;
+  int components_removed = 0;
+  double encode = 0, field = 0, extract = 0, cleanup = 0;
+};
+
+Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings,
+                                int resolution, const std::string& what, MeshStats& stats) const {
+  auto t = Clock::now();
+  const SdfNet::ShapeCode code = sdf_->encode(input.data(), camera);
+  stats.encode = since(t);
+
+  double field_seconds = 0;
+  const BatchField field = [&](const Points& p, Eigen::VectorXd& values) {
+    const auto tf = Clock::now();
+    sdf_->field(code, p, values);
+    field_seconds += since(tf);
+  };
+  ExtractSettings es;
+  es.resolution = resolution;
+  es.coarse_resolution = settings.coarse_resolution;
+  es.box_min = Vec3::Constant(-settings.box_half);
+  es.box_size = 2 * settings.box_half;
+  es.iso = 0.0;
+  es.safety = settings.safety;
+  es.close_boundary = true;
+  const ExtractResult ex = settings.dense ? dense_extract(field, es) : adaptive_extract(field, es);
+  stats.evaluations = ex.evaluations;
+  stats.field = field_seconds;
+  stats.extract = std::max(0.0, ex.seconds - field_seconds);
+  if (ex.mesh.empty())
+    throw Error(what + ": no surface found (the network predicts no inside region in the box)");
+
+  t = Clock::now();
+  CleanupSettings cs;
+  cs.min_component_fraction = settings.min_component_fraction;
+  CleanupReport rep;
+  Mesh mesh = cleanup(ex.mesh, cs, &rep);
+  stats.components_removed = rep.components - rep.kept_components;
+  stats.cleanup = since(t);
+  return mesh;
+}
+
 ReconResult Reconstructor::run_input(const Eigen::VectorXf& input, const Camera* camera, const ReconSettings& settings,
-                                     const std::string& what) const {
+                                     const std::string& what, const Image* silhouette) const {
   require(input.size() == 3 * kNetImageSize * kNetImageSize, what + ": network input must be 3 x 137 x 137");
-  require(settings.resolution >= 3 && settings.coarse_resolution >= 2, what + ": resolution too small");
-  require(settings.dense || ((settings.resolution - 1) % (settings.coarse_resolution - 1) == 0 &&
-                             power_of_two((settings.resolution - 1) / (settings.coarse_resolution - 1))),
-          what + ": (resolution - 1) / (coarse resolution - 1) must be a power of two, e.g. 65, 129, 257 with 17");
+  require(settings.refine_rounds >= 0, what + ": refinement rounds must be >= 0");
+  const int refine_res = std::min(settings.refine_resolution, settings.resolution);
+  for (const int res : {settings.resolution, settings.refine_rounds > 0 ? refine_res : settings.resolution}) {
+    require(res >= 3 && settings.coarse_resolution >= 2, what + ": resolution too small");
+    require(settings.dense || ((res - 1) % (settings.coarse_resolution - 1) == 0 &&
+                               power_of_two((res - 1) / (settings.coarse_resolution - 1))),
+            what + ": (resolution - 1) / (coarse resolution - 1) must be a power of two, e.g. 65, 129, 257 with 17");
+  }
   require(settings.safety >= 1.0, what + ": safety factor must be >= 1");
   ReconResult r;
   const auto t_all = Clock::now();
@@ -136,38 +229,52 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& input, const Camera*
     r.camera_estimated = true;
     r.timings.pose = since(t);
   }
-  t = Clock::now();
-  const SdfNet::ShapeCode code = sdf_->encode(input.data(), r.camera);
-  r.timings.encode = since(t);
+  r.initial_camera = r.camera;
 
-  double field_seconds = 0;
-  const BatchField field = [&](const Points& p, Eigen::VectorXd& values) {
-    const auto tf = Clock::now();
-    sdf_->field(code, p, values);
-    field_seconds += since(tf);
-  };
-  ExtractSettings es;
-  es.resolution = settings.resolution;
-  es.coarse_resolution = settings.coarse_resolution;
-  es.box_min = Vec3::Constant(-settings.box_half);
-  es.box_size = 2 * settings.box_half;
-  es.iso = 0.0;
-  es.safety = settings.safety;
-  es.close_boundary = true;
-  const ExtractResult ex = settings.dense ? dense_extract(field, es) : adaptive_extract(field, es);
-  r.evaluations = ex.evaluations;
-  r.timings.field = field_seconds;
-  r.timings.extract = std::max(0.0, ex.seconds - field_seconds);
-  if (ex.mesh.empty())
-    throw Error(what + ": no surface found (the network predicts no inside region in the box)");
+  if (settings.refine_rounds > 0) {
+    t = Clock::now();
+    Image fg;
+    if (silhouette == nullptr) {
+      fg = input_foreground(input);
+      silhouette = &fg;
+    }
+    if (silhouette->width != r.camera.width || silhouette->height != r.camera.height)
+      throw InvalidInput(what + ": the silhouette for camera refinement must have the camera's image size");
+    for (int round = 0; round < settings.refine_rounds; ++round) {
+      CameraRefineResult rr;
+      if (settings.refine_joint) {
+        const MeshForCamera mesh_for = [&](const Camera& c) {
+          MeshStats st;
+          try {
+            Mesh m = reconstruct(input, c, settings, refine_res, what, st);
+            r.evaluations += st.evaluations;
+            return m;
+          } catch (const Error&) {  // no surface through this camera: an empty silhouette
+            r.evaluations += st.evaluations;
+            return Mesh{};
+          }
+        };
+        rr = refine_camera(mesh_for, *silhouette, r.camera, settings.refine);
+      } else {
+        MeshStats st;
+        const Mesh m = reconstruct(input, r.camera, settings, refine_res, what, st);
+        r.evaluations += st.evaluations;
+        rr = refine_camera(m, *silhouette, r.camera, settings.refine);
+      }
+      r.camera = rr.camera;
+      r.refinements.push_back(std::move(rr));
+    }
+    r.timings.refine = since(t);
+  }
 
-  t = Clock::now();
-  CleanupSettings cs;
-  cs.min_component_fraction = settings.min_component_fraction;
-  CleanupReport rep;
-  r.mesh = cleanup(ex.mesh, cs, &rep);
-  r.components_removed = rep.components - rep.kept_components;
-  r.timings.cleanup = since(t);
+  MeshStats st;
+  r.mesh = reconstruct(input, r.camera, settings, settings.resolution, what, st);
+  r.evaluations += st.evaluations;
+  r.components_removed = st.components_removed;
+  r.timings.encode = st.encode;
+  r.timings.field = st.field;
+  r.timings.extract = st.extract;
+  r.timings.cleanup = st.cleanup;
 
   if (settings.preview) {
     t = Clock::now();

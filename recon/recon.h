@@ -11,10 +11,12 @@
 #include "camera/image.h"
 #include "core/types.h"
 #include "nets/sdf_net.h"
+#include "recon/camera_refine.h"
 
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 namespace sdfkit {
 
@@ -32,6 +34,18 @@ struct ReconSettings {
   /// An input is refused as "only background" when fewer than this fraction of its network-image pixels differ
   /// from the white background by more than 0.05 (after alpha/mask compositing).
   double min_foreground_fraction = 0.002;
+  /// Rounds of test-time camera refinement by silhouette alignment (recon/camera_refine.h; 0 = off). Each round
+  /// reconstructs a mesh at `refine_resolution` with the current camera, aligns its silhouette to the input's
+  /// object mask (recon_silhouette) and continues with the refined camera; the final mesh is reconstructed with
+  /// the last camera.
+  int refine_rounds = 0;
+  /// true: the objective re-reconstructs the mesh with every candidate camera (the network's local features move
+  /// with the camera, so a wrong camera yields a mesh carved to the mask as seen through that wrong camera; the
+  /// joint objective scores how well the network's shape and the camera agree). false: align the one mesh
+  /// reconstructed with the round's start camera (cheaper).
+  bool refine_joint = true;
+  int refine_resolution = 33;    ///< grid of the intermediate meshes (the final resolution when that is lower)
+  CameraRefineSettings refine;
 };
 
 struct ReconTimings {
@@ -41,14 +55,17 @@ struct ReconTimings {
   double field = 0;     ///< network evaluations inside the extraction
   double extract = 0;   ///< extraction excluding field evaluations (marching cubes, refinement bookkeeping)
   double cleanup = 0;
+  double refine = 0;    ///< camera refinement: intermediate reconstructions + silhouette alignment
   double preview = 0;
   double total = 0;
 };
 
 struct ReconResult {
   Mesh mesh;                    ///< closed, object frame
-  Camera camera;                ///< the camera used (137 px)
+  Camera camera;                ///< the camera used (137 px), after refinement when it ran
   bool camera_estimated = false;
+  Camera initial_camera;        ///< the estimated or given camera before refinement
+  std::vector<CameraRefineResult> refinements;  ///< one per refinement round (empty when off)
   long evaluations = 0;         ///< field evaluations
   int components_removed = 0;
   ReconTimings timings;
@@ -60,6 +77,14 @@ struct ReconResult {
 /// is only background.
 Eigen::VectorXf prepare_recon_input(const Image& image, const Image* mask, const ReconSettings& settings,
                                     const std::string& what);
+
+/// The object's silhouette at 137 x 137 (1 channel, coverage in [0, 1]), as recon defines the foreground: the
+/// mask when given (its alpha, else its luminance), else the image's alpha (2 or 4 channels), else the pixels of
+/// the network input `input` that differ from the white background by more than 0.05. Mask and alpha are resampled
+/// like the image (network_image).
+Image recon_silhouette(const Image& image, const Image* mask, const Eigen::VectorXf& input);
+/// The last rule alone: non-white pixels of a network input (3 x 137 x 137).
+Image input_foreground(const Eigen::VectorXf& input);
 
 /// Holds the networks; run() is thread-safe (the pose network is serialised by a mutex).
 class Reconstructor {
@@ -76,13 +101,17 @@ class Reconstructor {
   /// Reconstruct one image. `camera` null = estimate it. `what` names the input in error messages.
   ReconResult run(const Image& image, const Image* mask, const Camera* camera, const ReconSettings& settings,
                   const std::string& what) const;
-  /// Same from a prepared network input (3 x 137 x 137).
+  /// Same from a prepared network input (3 x 137 x 137). `silhouette` (137 x 137 coverage, recon_silhouette) is
+  /// the mask camera refinement aligns to; null = input_foreground(input).
   ReconResult run_input(const Eigen::VectorXf& input, const Camera* camera, const ReconSettings& settings,
-                        const std::string& what) const;
+                        const std::string& what, const Image* silhouette = nullptr) const;
   /// Camera estimate of a network input (InvalidInput when no pose network is loaded).
   Camera estimate_camera(const Eigen::VectorXf& input) const;
 
  private:
+  struct MeshStats;
+  Mesh reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings, int resolution,
+                   const std::string& what, MeshStats& stats) const;
   std::unique_ptr<SdfNet> sdf_;
   std::unique_ptr<PoseNet> pose_;
   mutable std::mutex pose_mutex_;
