@@ -31,7 +31,8 @@ struct Pending {
   Eigen::Vector3f p;
   int32_t face;    ///< hint: closest face of the cell's coarse centre
   uint64_t key;    ///< Morton code of the cell (query order)
-  double value;    ///< exact signed distance (NaN: beyond the bins' reach)
+  double value;    ///< before the query: an upper bound of the distance; after: the exact signed distance (NaN:
+                   ///< beyond the bins' reach)
 };
 
 /// Morton (Z-order) code of a voxel at 2-voxel resolution, 10 bits per axis: nearby cells get nearby codes.
@@ -247,7 +248,8 @@ MatrixXfR disn_samples(const MeshQueries& queries, const SparseSdf& sdf, const S
   // voxel's sign (u > 0.9 voxel). Dropping only skips queries: every stored sample is still exact.
   const double slack = 1e-3 * h;
   const double sign_margin = normals ? 0.0 : 0.9 * h;
-  auto may_fall_in = [&](const Vec3& p, const Cell& cell, auto& acc, double lo, double hi) {
+  // `bound` receives an upper bound of p's distance (the exact query then prunes the BVH from the start).
+  auto may_fall_in = [&](const Vec3& p, const Cell& cell, auto& acc, double lo, double hi, double& bound) {
     const Vec3 ip = p / h + Vec3(off.x(), off.y(), off.z());
     const openvdb::Coord base(static_cast<int32_t>(std::floor(ip.x())), static_cast<int32_t>(std::floor(ip.y())),
                               static_cast<int32_t>(std::floor(ip.z())));
@@ -267,6 +269,7 @@ MatrixXfR disn_samples(const MeshQueries& queries, const SparseSdf& sdf, const S
     uhi = std::min(uhi, cell.centre_u + rc);
     ulo = std::max(0.0, ulo - slack);
     uhi += slack;
+    bound = uhi;
     const auto overlaps = [&](double a, double b) { return b >= lo && a <= hi; };
     if (std::abs(nearest_g) - nearest_r > sign_margin + slack)
       return nearest_g < 0 ? overlaps(-uhi, -ulo) : overlaps(ulo, uhi);
@@ -305,8 +308,9 @@ MatrixXfR disn_samples(const MeshQueries& queries, const SparseSdf& sdf, const S
               static_cast<float>((cell.origin.x() - off.x() - 0.5 + side * rng.uniform()) * h),
               static_cast<float>((cell.origin.y() - off.y() - 0.5 + side * rng.uniform()) * h),
               static_cast<float>((cell.origin.z() - off.z() - 0.5 + side * rng.uniform()) * h));
-          if (!may_fall_in(pf.cast<double>(), cell, acc, lo, hi)) continue;
-          out.push_back({pf, cell.face, morton_key(cell.origin), 0.0});
+          double bound = 0;
+          if (!may_fall_in(pf.cast<double>(), cell, acc, lo, hi, bound)) continue;
+          out.push_back({pf, cell.face, morton_key(cell.origin), std::min(bound, reach * 1.001 + 1e-9)});
         }
       });
       std::vector<Pending> pending;
@@ -319,7 +323,7 @@ MatrixXfR disn_samples(const MeshQueries& queries, const SparseSdf& sdf, const S
         auto acc = grid.getConstAccessor();
         for (size_t k = r.begin(); k != r.end(); ++k) {
           Pending& q = pending[static_cast<size_t>(order[k] & ((uint64_t{1} << 20) - 1))];
-          q.value = exact(q.p.cast<double>(), acc, reach * 1.001 + 1e-9, q.face);
+          q.value = exact(q.p.cast<double>(), acc, q.value, q.face);
         }
       });
       evaluated[b] += static_cast<long>(pending.size());

@@ -282,6 +282,7 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
     const double width2 = width * width;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nleaves, 8), [&](const auto& r) {
       std::array<double, LeafT::SIZE> best;
+      std::vector<std::pair<double, int32_t>> order;
       for (size_t li = r.begin(); li != r.end(); ++li) {
         const Coord origin = key_origin(pairs[starts[li]].first);
         best.fill(width2);
@@ -305,17 +306,29 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
               hint = cp.face;
             }
           }
-        } else
-        for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi) {
-          const BandTriangle& t = tris[static_cast<size_t>(pairs[pi].second)];
-          const auto& box = tri_box[static_cast<size_t>(pairs[pi].second)];
-          const Coord lo = Coord::maxComponent(box.first, origin);
-          const Coord hi = Coord::minComponent(box.second, origin.offsetBy(D - 1));
-          for (int32_t x = lo.x(); x <= hi.x(); ++x)
-            for (int32_t y = lo.y(); y <= hi.y(); ++y) {
-              const size_t i = static_cast<size_t>(((x - origin.x()) * D + (y - origin.y())) * D + (lo.z() - origin.z()));
-              t.row_min((x - O) * h, (y - O) * h, lo.z(), hi.z() - lo.z() + 1, O, h, &best[i], width2);
-            }
+        } else {
+          // Nearest triangles first (distance to the leaf's centre): the voxels' best values then drop early
+          // and the later triangles' voxels mostly end at the first (plane) test. The minimum does not depend
+          // on the order.
+          const Vec3 centre((origin.x() + 0.5 * (D - 1) - O) * h, (origin.y() + 0.5 * (D - 1) - O) * h,
+                            (origin.z() + 0.5 * (D - 1) - O) * h);
+          order.clear();
+          for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi)
+            order.emplace_back(tris[static_cast<size_t>(pairs[pi].second)].squared_distance(centre), pairs[pi].second);
+          std::sort(order.begin(), order.end());
+          for (const auto& [unused, f] : order) {
+            const BandTriangle& t = tris[static_cast<size_t>(f)];
+            const auto& box = tri_box[static_cast<size_t>(f)];
+            const Coord lo = Coord::maxComponent(box.first, origin);
+            const Coord hi = Coord::minComponent(box.second, origin.offsetBy(D - 1));
+            const int32_t count = hi.z() - lo.z() + 1;
+            for (int32_t x = lo.x(); x <= hi.x(); ++x)
+              for (int32_t y = lo.y(); y <= hi.y(); ++y) {
+                const size_t i =
+                    static_cast<size_t>(((x - origin.x()) * D + (y - origin.y())) * D + (lo.z() - origin.z()));
+                t.row_min((x - O) * h, (y - O) * h, lo.z(), count, O, h, &best[i], width2);
+              }
+          }
         }
         bool any = false;
         for (double b : best) any = any || b < width2;

@@ -4,6 +4,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <limits>
 #include <vector>
 
@@ -68,7 +69,11 @@ TEST_CASE("band triangle: a row update is the exact minimum wherever it lowers t
       for (double& b : best) b = rng.uniform(0, 0.02);  // previous minima of other triangles
       before = best;
       const double px = (xi - O) * h, py = (yi - O) * h;
-      t.row_min(px, py, z0, count, O, h, best.data(), r % 2 ? 0.02 : std::numeric_limits<double>::infinity());
+      // No row bound, a loose one, and the tightest allowed (the row's largest best value: clips the row to the
+      // triangle's plane slab).
+      const double tight = *std::max_element(before.begin(), before.end());
+      t.row_min(px, py, z0, count, O, h, best.data(),
+                r % 3 == 0 ? std::numeric_limits<double>::infinity() : r % 3 == 1 ? 0.02 : tight);
       for (int32_t k = 0; k < count; ++k) {
         const Vec3 p(px, py, (z0 + k - O) * h);
         const double ref = (closest_point_on_triangle(p, c[0], c[1], c[2]) - p).squaredNorm();
