@@ -21,6 +21,20 @@ MeshDistance::MeshDistance(const Mesh& mesh) : bvh_(TriangleBvh::build(mesh, 4))
   require(mesh.F.rows() > 0, "MeshDistance: the mesh has no faces");
   slot_of_face_.resize(bvh_.face.size());
   for (size_t s = 0; s < bvh_.face.size(); ++s) slot_of_face_[static_cast<size_t>(bvh_.face[s])] = static_cast<int32_t>(s);
+  require(bvh_.corners.size() < (size_t{1} << 27), "MeshDistance: too many triangles");
+  require(!bvh_.nodes[0].leaf() || bvh_.nodes[0].end - bvh_.nodes[0].begin <= 7,
+          "MeshDistance: BVH leaf larger than 7 triangles");
+  // Rounded outward so that distances to the float box never exceed those to the exact box.
+  auto round_down = [](double x) {
+    float f = static_cast<float>(x);
+    if (static_cast<double>(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+    return f;
+  };
+  auto round_up = [](double x) {
+    float f = static_cast<float>(x);
+    if (static_cast<double>(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+    return f;
+  };
   qnodes_.resize(bvh_.nodes.size());
   for (size_t n = 0; n < bvh_.nodes.size(); ++n) {
     const auto& node = bvh_.nodes[n];
@@ -28,32 +42,34 @@ MeshDistance::MeshDistance(const Mesh& mesh) : bvh_(TriangleBvh::build(mesh, 4))
     q.begin = node.begin;
     q.end = node.end;
     if (node.leaf()) continue;
-    q.child[0] = node.left;
-    q.child[1] = node.right;
+    const int32_t kids[2] = {node.left, node.right};
     for (int c = 0; c < 2; ++c) {
-      const auto& box = bvh_.nodes[static_cast<size_t>(q.child[c])].box;
+      const auto& kid = bvh_.nodes[static_cast<size_t>(kids[c])];
+      require(!kid.leaf() || kid.end - kid.begin <= 7, "MeshDistance: BVH leaf larger than 7 triangles");
+      q.child[c] = kid.leaf() ? leaf_code(kid.begin, kid.end) : kids[c];
       for (int a = 0; a < 3; ++a) {
-        // Rounded outward so that distances to the float box never exceed those to the exact box.
-        float lo = static_cast<float>(box.min()[a]), hi = static_cast<float>(box.max()[a]);
-        if (static_cast<double>(lo) > box.min()[a]) lo = std::nextafter(lo, -std::numeric_limits<float>::infinity());
-        if (static_cast<double>(hi) < box.max()[a]) hi = std::nextafter(hi, std::numeric_limits<float>::infinity());
-        q.lo[a][c] = lo;
-        q.hi[a][c] = hi;
+        q.lo[a][c] = round_down(kid.box.min()[a]);
+        q.hi[a][c] = round_up(kid.box.max()[a]);
       }
     }
   }
-  plane_.resize(bvh_.corners.size());
+  slot_bound_.resize(bvh_.corners.size());
   for (size_t s = 0; s < bvh_.corners.size(); ++s) {
     const auto& t = bvh_.corners[s];
+    SlotBound& sb = slot_bound_[s];
+    for (int a = 0; a < 3; ++a) {
+      sb.lo[a] = round_down(bvh_.boxes[s].min()[a]);
+      sb.hi[a] = round_up(bvh_.boxes[s].max()[a]);
+    }
     const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]);
     const double len = n.norm();
     // Only well-shaped triangles get a plane bound (a sliver's normal is not accurate enough to bound with).
     const double longest2 = std::max({(t[1] - t[0]).squaredNorm(), (t[2] - t[1]).squaredNorm(), (t[0] - t[2]).squaredNorm()});
     if (len > 1e-6 * longest2 && longest2 > 0) {
       const Vec3 u = n / len;
-      plane_[s] = {u.x(), u.y(), u.z(), u.dot(t[0])};
+      sb.plane[0] = u.x(), sb.plane[1] = u.y(), sb.plane[2] = u.z(), sb.plane[3] = u.dot(t[0]);
     } else {
-      plane_[s] = {0, 0, 0, 0};
+      sb.plane[0] = sb.plane[1] = sb.plane[2] = sb.plane[3] = 0;
     }
   }
 }
@@ -77,24 +93,28 @@ ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound, int32_t hi
     }
   }
   struct Entry {
-    int32_t node;
+    int32_t node;  ///< inner node index, or a leaf_code
     double d2;
   };
   Entry stack[128];
   int top = 0;
-  stack[top++] = {0, box_distance2(bvh_.nodes[0].box, p)};
+  const auto& root = bvh_.nodes[0];
+  stack[top++] = {root.leaf() ? leaf_code(root.begin, root.end) : 0, box_distance2(root.box, p)};
   const double px = p.x(), py = p.y(), pz = p.z();
   while (top > 0) {
     const Entry e = stack[--top];
     if (e.d2 >= best2) continue;
-    const QueryNode& node = qnodes_[static_cast<size_t>(e.node)];
-    if (node.child[0] < 0) {
-      for (int32_t s = node.begin; s < node.end; ++s) {
-        const auto& pl = plane_[static_cast<size_t>(s)];
-        const double plane = pl[0] * px + pl[1] * py + pl[2] * pz - pl[3];  // a lower bound of the distance
+    if (e.node < 0) {
+      const int32_t code = -(e.node + 1), begin = code >> 3, end = begin + (code & 7);
+      for (int32_t s = begin; s < end; ++s) {
+        const SlotBound& sb = slot_bound_[static_cast<size_t>(s)];
+        const double plane = sb.plane[0] * px + sb.plane[1] * py + sb.plane[2] * pz - sb.plane[3];  // a lower bound
         if (plane * plane > best2) continue;  // cannot be closer (ties still compared below)
-        if (box_distance2(bvh_.boxes[s], p) > best2) continue;
-        const auto& t = bvh_.corners[s];
+        const double bx = std::max(std::max(double(sb.lo[0]) - px, px - double(sb.hi[0])), 0.0);
+        const double by = std::max(std::max(double(sb.lo[1]) - py, py - double(sb.hi[1])), 0.0);
+        const double bz = std::max(std::max(double(sb.lo[2]) - pz, pz - double(sb.hi[2])), 0.0);
+        if (bx * bx + by * by + bz * bz > best2) continue;
+        const auto& t = bvh_.corners[static_cast<size_t>(s)];
         int region = 0;
         const Vec3 q = closest_point_on_triangle(p, t[0], t[1], t[2], &region);
         const double d2 = (q - p).squaredNorm();
@@ -107,6 +127,7 @@ ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound, int32_t hi
       }
       continue;
     }
+    const QueryNode& node = qnodes_[static_cast<size_t>(e.node)];
     double d[2];
     for (int c = 0; c < 2; ++c) {
       const double dx = std::max(std::max(double(node.lo[0][c]) - px, px - double(node.hi[0][c])), 0.0);

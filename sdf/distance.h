@@ -42,16 +42,23 @@ class MeshDistance {
   static double brute_force(const Mesh& mesh, const Vec3& p);
 
  private:
-  /// Query layout of one BVH node: both children's boxes side by side (one fetch, two box distances), or the
-  /// node's slot range when it is a leaf.
+  /// Query layout of one inner BVH node: both children's boxes side by side (one fetch, two box distances).
+  /// A child that is a leaf is encoded in place (leaf_code: its slot range), so that leaves cost no node fetch.
   struct alignas(64) QueryNode {
     float lo[3][2], hi[3][2];  ///< [axis][child], rounded outward (float: one cache line per node)
-    int32_t child[2] = {-1, -1};
-    int32_t begin = 0, end = 0;
+    int32_t child[2] = {-1, -1};  ///< inner child: its index (>= 0); leaf child: leaf_code (< 0)
+    int32_t begin = 0, end = 0;   ///< the node's own slot range
+  };
+  /// A leaf as a negative number: -(begin * 8 + count) - 1 (a leaf holds at most 4 triangles).
+  static int32_t leaf_code(int32_t begin, int32_t end) { return -(begin * 8 + (end - begin)) - 1; }
+  /// Per slot: what rejects a triangle before its exact test, in one cache line.
+  struct alignas(64) SlotBound {
+    double plane[4];       ///< unit normal and offset (zero when degenerate)
+    float lo[3], hi[3];    ///< the triangle's bounding box, rounded outward
   };
   TriangleBvh bvh_;
   std::vector<QueryNode> qnodes_;            ///< one per bvh_.nodes entry
-  std::vector<std::array<double, 4>> plane_;  ///< per slot: unit normal and offset (zero when degenerate)
+  std::vector<SlotBound> slot_bound_;         ///< one per slot
   std::vector<int32_t> slot_of_face_;  ///< inverse of bvh_.face
 };
 
