@@ -69,6 +69,7 @@ std::function<int()> setup_recon(CLI::App& app) {
     bool json = false, no_preview = false;
     int jobs = 1;
     std::string refine_mode = "joint";
+    bool refine = false;
   };
   auto o = std::make_shared<Opts>();
   o->model = std::string(SDFKIT_SOURCE_DIR) + "/data/models/sdf.ckpt";
@@ -100,38 +101,39 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "drop mesh components with fewer faces than this fraction of the largest (DISN: 0.3)")
       ->capture_default_str();
   app.add_option("--format", o->format, "mesh format in folder mode: obj or ply")->capture_default_str();
-  app.add_option("--refine-camera", o->s.refine_rounds,
-                 "rounds of test-time camera refinement: reconstruct, align the mesh's silhouette to the input's "
-                 "object mask (alpha, --mask, else non-white pixels) by turning the camera about the object (up to "
-                 "--refine-max-deg per axis) and changing its distance (up to --refine-max-distance), reconstruct "
-                 "again with the refined camera; 0 = off (docs/recon.md)")
-      ->capture_default_str()
+  app.add_flag("--refine-camera", o->refine,
+               "test-time camera refinement (opt-in, docs/recon.md): reconstruct coarsely (--refine-res) for camera "
+               "candidates turned in azimuth within +-(--refine-sweep) degrees, keep the one whose mesh's "
+               "silhouette best overlaps the input's object mask (alpha, --mask, else non-white pixels), then "
+               "reconstruct with it");
+  app.add_option("--refine-rounds", o->s.refine_rounds, "refinement rounds (implies --refine-camera when > 0)")
       ->check(CLI::Range(0, 5));
-  app.add_option("--refine-res", o->s.refine_resolution, "grid resolution of the meshes refinement aligns")
+  app.add_option("--refine-res", o->s.refine_resolution, "grid resolution of the meshes refinement scores")
       ->capture_default_str();
   app.add_option("--refine-mode", o->refine_mode,
-                 "joint: reconstruct again (at --refine-res) for every candidate camera and score that mesh through "
-                 "that camera; mesh: align the one mesh reconstructed with the estimate (cheaper, weaker)")
+                 "joint: reconstruct again for every candidate camera and score that mesh through that camera; "
+                 "mesh: align the one mesh reconstructed with the estimate (cheaper; did not help on the test split)")
       ->capture_default_str()
       ->check(CLI::IsMember({"joint", "mesh"}));
-  app.add_flag("!--refine-keep-distance", o->s.refine.refine_distance,
-               "refine the rotation only (the camera distance stays as estimated)");
   app.add_option("--refine-sweep", o->s.refine.sweep_azimuth_deg,
-                 "coarse stage before the local search: try azimuth turns of the camera up to +-this many degrees "
-                 "(0 = none)")
+                 "azimuth turns tried: -this..+this degrees (0 = none)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 180.0));
   app.add_option("--refine-sweep-step", o->s.refine.sweep_step_deg, "step of the azimuth sweep in degrees")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 90.0));
-  app.add_option("--refine-evals", o->s.refine.max_evaluations, "objective evaluations per refinement round")
+  app.add_flag("--refine-local", o->s.refine.local_search,
+               "after the sweep, a bounded Nelder-Mead search over the rotation (and with --refine-distance the "
+               "distance) around the best candidate");
+  app.add_flag("--refine-distance", o->s.refine.refine_distance, "the local search also changes the camera distance");
+  app.add_option("--refine-evals", o->s.refine.max_evaluations, "objective evaluations of the local search")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
-  app.add_option("--refine-max-deg", o->s.refine.max_rotation_deg, "refinement bound of each rotation component")
+  app.add_option("--refine-max-deg", o->s.refine.max_rotation_deg, "local search bound of each rotation component")
       ->capture_default_str()
       ->check(CLI::Range(0.1, 90.0));
   app.add_option("--refine-max-distance", o->s.refine.max_distance_change,
-                 "refinement bound of the camera distance: ratio within [1/(1+c), 1+c]")
+                 "local search bound of the camera distance: ratio within [1/(1+c), 1+c]")
       ->capture_default_str()
       ->check(CLI::Range(0.01, 1.0));
   app.add_flag("--no-preview", o->no_preview, "do not write the preview PNG");
@@ -147,6 +149,7 @@ std::function<int()> setup_recon(CLI::App& app) {
     if (!o->mask.empty() && inputs.size() != 1) throw InvalidInput("--mask applies to a single input image");
     o->s.preview = !o->no_preview;
     o->s.refine_joint = o->refine_mode == "joint";
+    if (o->refine && o->s.refine_rounds == 0) o->s.refine_rounds = 1;
     const bool estimate = o->cam == "est";
     const bool sidecar = o->cam == "sidecar";
     Camera fixed_camera;

@@ -174,10 +174,12 @@ CameraRefineResult refine(const std::function<double(const Camera&, const Image&
   }
   Vec4 best = Vec4::Zero(settings.refine_distance ? 4 : 3);
   double fbest = f0;
-  for (int run = 0; run <= settings.max_restarts && used < settings.max_evaluations; ++run) {
+  int local = 0;  // evaluations of the local search (its own budget)
+  for (int run = 0; settings.local_search && run <= settings.max_restarts && local < settings.max_evaluations;
+       ++run) {
     double f = 0;
     const Vec4 x = nelder_mead(objective, best, fbest, settings.initial_step, settings.tolerance,
-                               settings.max_evaluations, used, f);
+                               settings.max_evaluations, local, f);
     const bool improved = f < fbest - 1e-12;
     if (f < fbest) {
       best = x;
@@ -192,7 +194,7 @@ CameraRefineResult refine(const std::function<double(const Camera&, const Image&
   r.rotation_deg = q.axis() * q.angle() * (180.0 / M_PI);
   r.distance_ratio = p.ratio;
   r.iou_after = 1.0 - fbest;
-  r.evaluations = used;
+  r.evaluations = used + local;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }

@@ -28,7 +28,8 @@ struct CameraRefineSettings {
   bool refine_distance = true;        ///< false: rotation only (3 parameters), the distance is kept
   double initial_step = 0.2;          ///< simplex edge in the normalised box (0.2 = 4 degrees / ~3.7% distance)
   int supersampling = 2;              ///< silhouette samples per pixel side
-  int max_evaluations = 400;          ///< objective evaluations over all restarts
+  bool local_search = true;           ///< the Nelder-Mead stage (false: the sweep alone)
+  int max_evaluations = 400;          ///< objective evaluations of the local search over all restarts
   int max_restarts = 3;
   double tolerance = 1e-4;            ///< stop a run when the simplex's objective spread and size fall under this
   /// Coarse stage before the local search (0 = none): the objective at turns of the object about its vertical
@@ -45,7 +46,7 @@ struct CameraRefineResult {
   Vec3 rotation_deg = Vec3::Zero();  ///< w of the result, degrees (camera-frame axes), relative to `start`
   double distance_ratio = 1;     ///< r of the result
   double sweep_azimuth_deg = 0;  ///< azimuth turn chosen by the coarse stage (0 when none or the estimate won)
-  int evaluations = 0;
+  int evaluations = 0;           ///< objective evaluations: the start, the sweep and the local search
   double seconds = 0;
 };
 

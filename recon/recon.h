@@ -22,6 +22,17 @@ namespace sdfkit {
 
 class PoseNet;
 
+/// The camera refinement settings recon uses by default (see ReconSettings::refine).
+inline CameraRefineSettings recon_refine_defaults() {
+  CameraRefineSettings s;
+  s.sweep_azimuth_deg = 60.0;
+  s.sweep_step_deg = 10.0;
+  s.local_search = false;
+  s.refine_distance = false;
+  s.max_evaluations = 60;
+  return s;
+}
+
 struct ReconSettings {
   int resolution = 129;          ///< final grid points per axis (65, 129, 257, ...)
   int coarse_resolution = 17;    ///< first level of the adaptive extraction
@@ -45,7 +56,10 @@ struct ReconSettings {
   /// reconstructed with the round's start camera (cheaper).
   bool refine_joint = true;
   int refine_resolution = 33;    ///< grid of the intermediate meshes (the final resolution when that is lower)
-  CameraRefineSettings refine;
+  /// The optimisation. Defaults measured on the synthetic test split (docs/results/sdf.md, "camera refinement"):
+  /// the joint objective, azimuth turns of -60..+60 degrees in 10 degree steps, no local search (with the joint
+  /// objective's noise, Nelder-Mead over 3 or 4 parameters lost more than it won).
+  CameraRefineSettings refine = recon_refine_defaults();
 };
 
 struct ReconTimings {

@@ -1,4 +1,5 @@
 // CLI-level tests of `sdfkit recon` with the shipped models and examples (data/models, data/examples).
+#include "camera/camera.h"
 #include "camera/image.h"
 #include "core/files.h"
 #include "core/mesh_io.h"
@@ -7,6 +8,7 @@
 
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <utility>
@@ -110,4 +112,43 @@ TEST_CASE("recon refuses corrupt, empty and background-only images with one clea
   CHECK(r.code == 2);
   CHECK(fs::exists(dir / "out" / "good.obj"));
   CHECK(!fs::exists(dir / "out" / "background.obj"));
+}
+
+// Issue 7: test-time camera refinement (recon --refine-camera). A small sweep keeps the case fast; the JSON reports
+// the initial camera and the silhouette IoU before/after; the mesh is closed (determinism: tests/recon).
+TEST_CASE("recon --refine-camera: reported, closed; refused without an object") {
+  REQUIRE(have_models());
+  const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli" / "refine";
+  fs::remove_all(dir);
+  const std::string img = kSource + "/data/examples/car_0000.png";
+  const std::string flags = " --res 33 --no-preview --json --refine-camera --refine-res 17 --refine-sweep 30 "
+                            "--refine-sweep-step 15";
+  const std::string a = (dir / "a.obj").string();
+  Run r = run("recon " + img + " -o " + a + flags);
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const Json j = Json::parse(r.out);
+  REQUIRE(j.contains("camera_refinement"));
+  const Json& round = j["camera_refinement"]["rounds"].at(0);
+  CHECK(j["camera_refinement"]["rounds"].size() == 1);
+  CHECK(round["evaluations"].get<int>() == 5);  // the estimate and 4 turns (-30, -15, 15, 30)
+  CHECK(round["iou_after"].get<double>() >= round["iou_before"].get<double>());
+  CHECK(round["iou_before"].get<double>() > 0.5);  // the shipped example's mesh roughly fits its own alpha
+  const double sweep = round["sweep_azimuth_deg"].get<double>();
+  CHECK((sweep == 0 || std::abs(sweep) == 15 || std::abs(sweep) == 30));
+  const Camera initial = camera_from_json(j["camera_refinement"]["initial_camera"]);
+  const Camera final_cam = camera_from_json(j["camera"]);
+  // The refined camera is the initial one turned by the sweep about the object's vertical axis (no local search).
+  const LookAtParams li = look_at_params(initial), lf = look_at_params(final_cam);
+  double daz = std::fmod(lf.azimuth_deg - li.azimuth_deg + 540.0, 360.0) - 180.0;
+  CHECK(std::abs(std::abs(daz) - std::abs(sweep)) < 1e-6);
+  CHECK(camera_center(final_cam).norm() == doctest::Approx(camera_center(initial).norm()));
+  CHECK(j["seconds"]["refine"].get<double>() > 0);
+  CHECK(closed_and_oriented(read_mesh(a)));
+
+  // A mask without any object pixel: refused (the background check of the input comes first), nothing written.
+  write_image((dir / "black_mask.png").string(), Image(137, 137, 1, 0.f));
+  r = run("recon " + img + " -o " + (dir / "c.obj").string() + flags + " --mask " + (dir / "black_mask.png").string());
+  CHECK(r.code == 1);
+  CHECK(r.err.find("background") != std::string::npos);
+  CHECK(!fs::exists(dir / "c.obj"));
 }
