@@ -123,8 +123,21 @@ void make_uuid_deterministic(std::string& bytes) {
   if (bytes.size() < kOffset + 36) return;
   for (size_t dash : {8, 13, 18, 23})
     if (bytes[kOffset + dash] != '-') return;  // unknown layout: leave it alone
-  std::string rest = bytes.substr(kOffset + 36);
-  const std::string h = fnv1a_hex(rest) + fnv1a_hex(rest + "sdfkit");
+  // fnv1a_hex(rest) + fnv1a_hex(rest + "sdfkit") (core/files.h), in one pass over the bytes without copies.
+  uint64_t a = 1469598103934665603ULL;
+  for (size_t i = kOffset + 36; i < bytes.size(); ++i) {
+    a ^= static_cast<unsigned char>(bytes[i]);
+    a *= 1099511628211ULL;
+  }
+  uint64_t b = a;
+  for (const char c : std::string("sdfkit")) {
+    b ^= static_cast<unsigned char>(c);
+    b *= 1099511628211ULL;
+  }
+  char buf[33];
+  std::snprintf(buf, sizeof buf, "%016llx%016llx", static_cast<unsigned long long>(a),
+                static_cast<unsigned long long>(b));
+  const std::string h = buf;
   std::string uuid = h.substr(0, 8) + "-" + h.substr(8, 4) + "-" + h.substr(12, 4) + "-" + h.substr(16, 4) + "-" +
                      h.substr(20, 12);
   bytes.replace(kOffset, 36, uuid);
@@ -706,7 +719,8 @@ void SparseSdf::write(const std::string& path) const {
     std::filesystem::path parent = std::filesystem::path(path).parent_path();
     if (!parent.empty()) std::filesystem::create_directories(parent);
     openvdb::io::File file(tmp);
-    openvdb::GridPtrVec grids{impl_->grid->deepCopyGrid()};
+    // A shallow copy (shares the tree) so that naming it does not touch this grid.
+    openvdb::GridPtrVec grids{impl_->grid->copyGrid()};
     grids[0]->setName("sdf");
     file.write(grids);
     file.close();
