@@ -86,19 +86,7 @@ void BandTriangle::row_min(double px, double py, int32_t z_begin, int32_t count,
     }
     edges_ready = true;
   };
-  // Voxels whose plane distance reaches the limit cannot improve (every best[k] <= limit2): only the slab
-  // |plane| < limit along the row is visited (a voxel of margin each side against round-off).
-  int32_t k_begin = 0, k_end = count;
-  if (std::isfinite(limit2) && plane_z != 0) {
-    const double w = std::sqrt(limit2) * (1 + 1e-9);
-    double za = (-w - plane0) / plane_z, zb = (w - plane0) / plane_z;
-    if (za > zb) std::swap(za, zb);
-    const double ka = za / h + index_offset - z_begin, kb = zb / h + index_offset - z_begin;
-    if (ka > count || kb < -1) return;
-    k_begin = std::max<int32_t>(0, static_cast<int32_t>(std::floor(std::max(ka, -2.0))) - 1);
-    k_end = std::min<int32_t>(count, static_cast<int32_t>(std::ceil(std::min(kb, count + 2.0))) + 2);
-  }
-  for (int32_t k = k_begin; k < k_end; ++k) {
+  for (int32_t k = 0; k < count; ++k) {
     const double pz = (z_begin + k - index_offset) * h;
     const double plane = plane0 + plane_z * pz;
     const double plane2 = plane * plane;
