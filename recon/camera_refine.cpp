@@ -6,7 +6,6 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
