@@ -1,7 +1,7 @@
 #include "metrics/assignment.h"
 
 #include "core/error.h"
-#include "metrics/simd.h"
+#include "core/simd.h"
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>

@@ -4,7 +4,7 @@
 #include "metrics/assignment.h"
 #include "metrics/kdtree.h"
 #include "metrics/sampling.h"
-#include "metrics/simd.h"
+#include "core/simd.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

@@ -2,7 +2,7 @@
 
 #include "core/error.h"
 #include "metrics/sampling.h"
-#include "metrics/simd.h"
+#include "core/simd.h"
 
 #include <tbb/parallel_for.h>
 

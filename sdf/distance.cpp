@@ -15,6 +15,41 @@ double box_distance2(const Eigen::AlignedBox3d& b, const Vec3& p) {
   const Vec3 d = (b.min() - p).cwiseMax(p - b.max()).cwiseMax(0.0);
   return d.squaredNorm();
 }
+
+/// Visits the leaves of `bvh` whose boxes, grown by `margin`, meet the line o + t d for t in [0, tmax] (slab test),
+/// calling `leaf(begin, end)` with each leaf's triangle slots; stops when it returns true, and then returns true.
+template <typename Leaf>
+bool any_leaf_on_line(const TriangleBvh& bvh, const Vec3& o, const Vec3& d, double tmax, double margin,
+                      Leaf&& leaf) {
+  int32_t stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const auto& node = bvh.nodes[static_cast<size_t>(stack[--top])];
+    double t0 = 0, t1 = tmax;
+    bool miss = false;
+    for (int k = 0; k < 3 && !miss; ++k) {
+      const double lo = node.box.min()[k] - margin, hi = node.box.max()[k] + margin;
+      if (std::abs(d[k]) < 1e-300) {  // parallel to the slab
+        miss = o[k] < lo || o[k] > hi;
+        continue;
+      }
+      double ta = (lo - o[k]) / d[k], tb = (hi - o[k]) / d[k];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+      miss = t0 > t1;
+    }
+    if (miss) continue;
+    if (!node.leaf()) {
+      stack[top++] = node.left;
+      stack[top++] = node.right;
+      continue;
+    }
+    if (leaf(node.begin, node.end)) return true;
+  }
+  return false;
+}
 }  // namespace
 
 MeshDistance::MeshDistance(const Mesh& mesh) : bvh_(TriangleBvh::build(mesh, 4)) {
@@ -151,33 +186,8 @@ bool MeshDistance::segment_may_cross(const Vec3& a, const Vec3& b) const {
   // Tolerances relative to the segment and the coordinates' magnitude: generous against round-off.
   const double scale = std::max({1.0, a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff()});
   const double margin = 1e-9 * scale;
-  int32_t stack[128];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const auto& node = bvh_.nodes[static_cast<size_t>(stack[--top])];
-    // Slab test of the segment against the node's box grown by `margin`.
-    double t0 = 0, t1 = 1;
-    bool miss = false;
-    for (int k = 0; k < 3 && !miss; ++k) {
-      const double lo = node.box.min()[k] - margin, hi = node.box.max()[k] + margin;
-      if (std::abs(d[k]) < 1e-300) {
-        miss = a[k] < lo || a[k] > hi;
-        continue;
-      }
-      double ta = (lo - a[k]) / d[k], tb = (hi - a[k]) / d[k];
-      if (ta > tb) std::swap(ta, tb);
-      t0 = std::max(t0, ta);
-      t1 = std::min(t1, tb);
-      miss = t0 > t1;
-    }
-    if (miss) continue;
-    if (!node.leaf()) {
-      stack[top++] = node.left;
-      stack[top++] = node.right;
-      continue;
-    }
-    for (int32_t s = node.begin; s < node.end; ++s) {
+  return any_leaf_on_line(bvh_, a, d, 1.0, margin, [&](int32_t begin, int32_t end) {
+    for (int32_t s = begin; s < end; ++s) {
       const auto& t = bvh_.corners[static_cast<size_t>(s)];
       // Moller-Trumbore with a tolerance on the barycentrics and on the segment parameter.
       const Vec3 e1 = t[1] - t[0], e2 = t[2] - t[0];
@@ -206,8 +216,8 @@ bool MeshDistance::segment_may_cross(const Vec3& a, const Vec3& b) const {
       if (tt < -eps || tt > 1 + eps) continue;
       return true;
     }
-  }
-  return false;
+    return false;
+  });
 }
 
 bool MeshDistance::ray_winding(const Vec3& p, const Vec3& dir, int* winding) const {
@@ -216,36 +226,10 @@ bool MeshDistance::ray_winding(const Vec3& p, const Vec3& dir, int* winding) con
   const Vec3 d = dir / len;
   const double scale = std::max(1.0, p.cwiseAbs().maxCoeff());
   const double margin = 1e-9 * scale;
-  Vec3 inv;
-  for (int k = 0; k < 3; ++k) inv[k] = d[k] != 0 ? 1.0 / d[k] : std::numeric_limits<double>::infinity();
   int sum = 0;
-  int32_t stack[128];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const auto& node = bvh_.nodes[static_cast<size_t>(stack[--top])];
-    // Slab test of the ray against the node's box grown by `margin`.
-    double t0 = 0, t1 = std::numeric_limits<double>::infinity();
-    bool miss = false;
-    for (int k = 0; k < 3 && !miss; ++k) {
-      const double lo = node.box.min()[k] - margin, hi = node.box.max()[k] + margin;
-      if (d[k] == 0) {
-        miss = p[k] < lo || p[k] > hi;
-        continue;
-      }
-      double ta = (lo - p[k]) * inv[k], tb = (hi - p[k]) * inv[k];
-      if (ta > tb) std::swap(ta, tb);
-      t0 = std::max(t0, ta);
-      t1 = std::min(t1, tb);
-      miss = t0 > t1;
-    }
-    if (miss) continue;
-    if (!node.leaf()) {
-      stack[top++] = node.left;
-      stack[top++] = node.right;
-      continue;
-    }
-    for (int32_t s = node.begin; s < node.end; ++s) {
+  bool uncertain = false;  // a crossing within round-off of an edge, a vertex, p or the plane
+  any_leaf_on_line(bvh_, p, d, std::numeric_limits<double>::infinity(), margin, [&](int32_t begin, int32_t end) {
+    for (int32_t s = begin; s < end; ++s) {
       const auto& t = bvh_.corners[static_cast<size_t>(s)];
       const Vec3 e1 = t[1] - t[0], e2 = t[2] - t[0];
       const Vec3 n = e1.cross(e2);
@@ -254,7 +238,7 @@ bool MeshDistance::ray_winding(const Vec3& p, const Vec3& dir, int* winding) con
         // Degenerate: contributes nothing unless the ray touches it (then the count is not certain).
         const Vec3 q = closest_point_on_triangle(p, t[0], t[1], t[2]);
         const double along = (q - p).dot(d);
-        if (along >= -margin && (q - p - along * d).norm() <= margin) return false;
+        if (along >= -margin && (q - p - along * d).norm() <= margin) return uncertain = true;
         continue;
       }
       const Vec3 pv = d.cross(e2);
@@ -262,7 +246,7 @@ bool MeshDistance::ray_winding(const Vec3& p, const Vec3& dir, int* winding) con
       const Vec3 tv = p - t[0];
       if (std::abs(det) <= 1e-9 * area) {
         // Parallel to the plane: uncertain only when the ray runs in the plane.
-        if (std::abs(tv.dot(n)) <= 1e-9 * area * std::max(1.0, tv.norm())) return false;
+        if (std::abs(tv.dot(n)) <= 1e-9 * area * std::max(1.0, tv.norm())) return uncertain = true;
         continue;
       }
       const double inv_det = 1.0 / det;
@@ -275,10 +259,12 @@ bool MeshDistance::ray_winding(const Vec3& p, const Vec3& dir, int* winding) con
       const double tt = e2.dot(qv) * inv_det;
       if (tt < -margin) continue;
       // Within round-off of the triangle's border, or of p itself: not certain.
-      if (u < eps || v < eps || u + v > 1 - eps || tt <= margin) return false;
+      if (u < eps || v < eps || u + v > 1 - eps || tt <= margin) return uncertain = true;
       sum += det < 0 ? 1 : -1;
     }
-  }
+    return false;
+  });
+  if (uncertain) return false;
   *winding = sum;
   return true;
 }

@@ -2,6 +2,7 @@
 
 #include "camera/render.h"
 #include "core/error.h"
+#include "core/mesh_io.h"
 #include "core/primitives.h"
 
 #include <doctest/doctest.h>
@@ -13,15 +14,6 @@ using namespace sdfkit;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-Mesh merge(const Mesh& a, const Mesh& b) {
-  Mesh m;
-  m.V.resize(a.V.rows() + b.V.rows(), 3);
-  m.V << a.V, b.V;
-  m.F.resize(a.F.rows() + b.F.rows(), 3);
-  m.F << a.F, (b.F.array() + static_cast<int32_t>(a.V.rows())).matrix();
-  return m;
-}
 
 double sum(const Image& img, int channel = 0) {
   double s = 0;
@@ -53,7 +45,7 @@ std::pair<int, double> compare_with_render(const Mesh& mesh, const Camera& cam, 
 }  // namespace
 
 TEST_CASE("silhouette coverage equals render.h's alpha (same samples) for closed meshes and several cameras") {
-  const Mesh mesh = merge(make_torus(Vec3(0.1, 0.0, -0.1), 0.5, 0.18, 48, 24), make_box(Vec3(-0.7, -0.4, -0.2),
+  const Mesh mesh = concatenate(make_torus(Vec3(0.1, 0.0, -0.1), 0.5, 0.18, 48, 24), make_box(Vec3(-0.7, -0.4, -0.2),
                                                                                       Vec3(-0.2, 0.5, 0.3)));
   for (const int s : {1, 2, 3}) {
     for (const double az : {0.0, 37.0, 145.0, 260.0}) {

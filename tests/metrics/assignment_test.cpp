@@ -2,7 +2,7 @@
 
 #include "core/error.h"
 #include "core/random.h"
-#include "metrics/simd.h"
+#include "core/simd.h"
 
 #include <doctest/doctest.h>
 

@@ -1,4 +1,4 @@
-#include "metrics/simd.h"
+#include "core/simd.h"
 
 #include "core/primitives.h"
 #include "metrics/emd.h"

@@ -2,6 +2,7 @@
 
 #include "camera/silhouette.h"
 #include "core/error.h"
+#include "core/mesh_io.h"
 #include "core/primitives.h"
 
 #include <doctest/doctest.h>
@@ -14,21 +15,12 @@ using namespace sdfkit;
 
 namespace {
 
-Mesh merge(const Mesh& a, const Mesh& b) {
-  Mesh m;
-  m.V.resize(a.V.rows() + b.V.rows(), 3);
-  m.V << a.V, b.V;
-  m.F.resize(a.F.rows() + b.F.rows(), 3);
-  m.F << a.F, (b.F.array() + static_cast<int32_t>(a.V.rows())).matrix();
-  return m;
-}
-
 /// An object without symmetries: a box body, a sphere on one corner, a thin arm and a torus handle.
 Mesh asymmetric_object() {
   Mesh m = make_box(Vec3(-0.45, -0.25, -0.3), Vec3(0.35, 0.15, 0.3));
-  m = merge(m, make_sphere(Vec3(0.3, 0.35, 0.15), 0.22, 16, 32));
-  m = merge(m, make_box(Vec3(-0.8, -0.05, -0.05), Vec3(-0.45, 0.05, 0.45)));
-  m = merge(m, make_torus(Vec3(0.0, -0.45, -0.2), 0.25, 0.06, 32, 12));
+  m = concatenate(m, make_sphere(Vec3(0.3, 0.35, 0.15), 0.22, 16, 32));
+  m = concatenate(m, make_box(Vec3(-0.8, -0.05, -0.05), Vec3(-0.45, 0.05, 0.45)));
+  m = concatenate(m, make_torus(Vec3(0.0, -0.45, -0.2), 0.25, 0.06, 32, 12));
   return m;
 }
 

@@ -1,8 +1,8 @@
-#include "metrics/simd.h"
+#include "core/simd.h"
 
 #include <atomic>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 namespace {
 
 bool cpu_has_avx2() {
@@ -23,4 +23,4 @@ std::atomic<bool>& avx2_flag() {
 bool avx2_enabled() { return avx2_flag().load(std::memory_order_relaxed); }
 void set_avx2_enabled(bool on) { avx2_flag().store(on && cpu_has_avx2(), std::memory_order_relaxed); }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit
