@@ -3,7 +3,6 @@
 #include "core/error.h"
 
 #include <algorithm>
-#include <numeric>
 #include <string>
 
 namespace sdfkit {
@@ -18,30 +17,6 @@ void check_indices(const Mesh& mesh, const char* what) {
 }
 
 }  // namespace
-
-std::vector<int> face_components(const Mesh& mesh, int* count) {
-  check_indices(mesh, "face_components");
-  std::vector<int32_t> parent(mesh.V.rows());
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](int32_t v) {
-    while (parent[v] != v) v = parent[v] = parent[parent[v]];
-    return v;
-  };
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    for (int k = 1; k < 3; ++k) {
-      const int32_t a = find(mesh.F(f, 0)), b = find(mesh.F(f, k));
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
-  std::vector<int> label(mesh.V.rows(), -1), component(mesh.F.rows());
-  int n = 0;
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
-    const int32_t root = find(mesh.F(f, 0));
-    if (label[root] < 0) label[root] = n++;
-    component[f] = label[root];
-  }
-  if (count) *count = n;
-  return component;
-}
 
 std::vector<double> component_sizes(const Mesh& mesh, const std::vector<int>& component, int count,
                                     ComponentMeasure measure) {

@@ -2,6 +2,7 @@
 // components over 30% of the largest), removing unreferenced vertices. Writers: core/mesh_io.h write_mesh.
 #pragma once
 
+#include "core/mesh_components.h"  // face_components
 #include "core/types.h"
 
 #include <vector>
@@ -23,10 +24,6 @@ struct CleanupReport {
   long removed_faces = 0;
   long removed_vertices = 0;  ///< including vertices unreferenced before the clean-up
 };
-
-/// Component id of every face (faces sharing a vertex are connected); ids are numbered in order of each
-/// component's first face. `count` receives the number of components.
-std::vector<int> face_components(const Mesh& mesh, int* count = nullptr);
 
 /// Size of every component (faces, or summed triangle area) for ids from face_components.
 std::vector<double> component_sizes(const Mesh& mesh, const std::vector<int>& component, int count,

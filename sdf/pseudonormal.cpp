@@ -1,6 +1,7 @@
 #include "sdf/pseudonormal.h"
 
 #include "core/error.h"
+#include "core/mesh_components.h"
 #include "core/random.h"
 #include "sdf/bvh.h"
 #include "sdf/orientation.h"
@@ -9,7 +10,6 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#include <numeric>
 
 namespace sdfkit {
 
@@ -56,20 +56,9 @@ bool pseudo_normal_sign_applies(const Mesh& mesh) {
   if (mesh.F.rows() == 0 || !is_closed_oriented(mesh)) return false;
   // One part: faces connected through shared vertices (closed + oriented makes that the same as through edges,
   // except for parts touching at a vertex, which are two parts: conservative).
-  std::vector<int32_t> parent(static_cast<size_t>(mesh.V.rows()));
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](int32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    for (int k = 1; k < 3; ++k) {
-      const int32_t a = find(mesh.F(f, 0)), b = find(mesh.F(f, k));
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
-  const int32_t root = find(mesh.F(0, 0));
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    if (find(mesh.F(f, 0)) != root) return false;
+  int parts = 0;
+  face_components(mesh, &parts);
+  if (parts != 1) return false;
   // Any vertex used by the faces sits in one fan: count, for each vertex, how many faces use it vs. how many
   // faces its fan walk visits would be the full test; closed + oriented + edge-manifold + one part is what we
   // require here (pinched vertices keep exact pseudo-normals as long as the surface does not self-intersect).
