@@ -3,25 +3,21 @@
 #include "core/mesh_io.h"
 #include "core/primitives.h"
 #include "sdf/prepare.h"
+#include "cli_run.h"
 
 #include <doctest/doctest.h>
 
-#include <sys/wait.h>
-
-#include <cstdlib>
 #include <filesystem>
 
 using namespace sdfkit;
 namespace fs = std::filesystem;
 
 namespace {
-int run(const std::string& args) {
-  const std::string log = (fs::temp_directory_path() / "sdfkit_prep_cli.log").string();
-  const std::string cmd = std::string(SDFKIT_EXE) + " prep " + args + " >" + log + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return code;
+/// `sdfkit prep ARGS`; stdout and stderr kept apart (test::run_sdfkit).
+test::CliRun prep(const std::string& args) {
+  return test::run_sdfkit("prep " + args, fs::temp_directory_path() / "sdfkit_prep_cli_io");
 }
+int run(const std::string& args) { return prep(args).code; }
 const char* kFast = " --voxel 0.03 --band 0.14 --samples 800 --views 0 ";
 
 std::string all_bytes(const fs::path& dir) {
@@ -59,9 +55,13 @@ TEST_CASE("sdfkit prep: a batch with bad files exits 2, writes the good shapes a
   CHECK(m["counts"]["ok"] == 2);
 
   // A single bad file: exit 1. Unknown extension: exit 1. Bad flags: exit 1.
-  CHECK(run((dir / "in" / "boxes" / "empty.obj").string() + " -o " + (dir / "o1").string()) == 1);
+  const test::CliRun empty = prep((dir / "in" / "boxes" / "empty.obj").string() + " -o " + (dir / "o1").string());
+  CHECK(empty.code == 1);
+  CHECK(empty.err.find("empty.obj") != std::string::npos);  // the error names the file
   write_text_atomic((dir / "x.abc").string(), "abc");
-  CHECK(run((dir / "x.abc").string() + " -o " + (dir / "o2").string()) == 1);
+  const test::CliRun unknown = prep((dir / "x.abc").string() + " -o " + (dir / "o2").string());
+  CHECK(unknown.code == 1);
+  CHECK(unknown.err.find("x.abc") != std::string::npos);
   CHECK(run((dir / "in").string() + " -o " + (dir / "o3").string() + " --shard 3/2") == 1);
   CHECK(run((dir / "in").string() + " -o " + (dir / "o3").string() + " --band 0.005") == 1);  // narrower than a voxel
   fs::remove_all(dir);
