@@ -1,5 +1,5 @@
-// Run-time choice of the hand-vectorised kernels (dense EMD certificate, nearest-neighbour scans, auction bids,
-// SDF band rows): AVX2 when the CPU has it, else the portable SSE2/scalar versions. Both compute the same IEEE
+// Run-time choice of the hand-vectorised kernels (dense EMD certificate, nearest-neighbour scans, auction bids):
+// AVX2 when the CPU has it, else the portable SSE2/scalar versions. Both compute the same IEEE
 // operations in the same order (no fused multiply-add), so results are the same bits either way; tests switch
 // AVX2 off to check exactly that.
 #pragma once
