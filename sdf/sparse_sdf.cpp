@@ -578,7 +578,10 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
                   const int32_t j = neighbour(g, a, dir);
                   if (j >= 0 && decided(j)) cand[static_cast<size_t>(nc6++)] = {-value(j), j};
                 }
-              std::sort(cand.begin(), cand.begin() + nc6);
+              // Insertion sort of at most 6 (std::sort here trips GCC 12's -Warray-bounds on its dead >16 branch).
+              for (int q = 1; q < nc6; ++q)
+                for (int r = q; r > 0 && cand[static_cast<size_t>(r)] < cand[static_cast<size_t>(r - 1)]; --r)
+                  std::swap(cand[static_cast<size_t>(r)], cand[static_cast<size_t>(r - 1)]);
               for (int q = 0; q < nc6 && from < 0; ++q)
                 if (!exact.segment_may_cross(p, position(cand[static_cast<size_t>(q)].second)))
                   from = cand[static_cast<size_t>(q)].second;
