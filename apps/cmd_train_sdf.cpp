@@ -69,7 +69,12 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   app.add_option("--batch", s.batch, "(shape, view) items per step")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--points", s.points, "SDF samples per item per step")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--lr", s.lr, "Adam learning rate (beta1 = 0.5 as DISN)")->capture_default_str();
-  app.add_option("--lr-min", s.lr_min, "cosine decay of the learning rate to this value at the last step (0 by default)")
+  app.add_option("--lr-min", s.lr_min, "cosine decay of the learning rate to this value at the end of the decay (= --lr: constant)")
+      ->capture_default_str();
+  app.add_option("--lr-steps", s.lr_steps,
+                 "steps over which the cosine decay runs (0 = --steps; larger: stop before the decay ends, e.g. "
+                 "--steps 6605 --lr-steps 13000 is the shipped model's schedule)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--weight-decay", s.weight_decay, "L2 weight decay (coupled, as DISN's regulariser)")
       ->capture_default_str();

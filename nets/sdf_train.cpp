@@ -159,6 +159,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   require(!st.out.empty(), "train sdf: an output model path is required");
   require(st.steps > 0 && st.batch > 0 && st.points > 0, "train sdf: steps, batch and points must be positive");
   require(st.lr > 0 && std::isfinite(st.lr), "train sdf: learning rate must be positive");
+  require(st.lr_steps >= 0, "train sdf: --lr-steps must be >= 0");
   require(st.net.image_size == kNetImageSize,
           "train sdf: the dataset reader produces " + std::to_string(kNetImageSize) + " px inputs");
   const auto t_start = std::chrono::steady_clock::now();
@@ -190,7 +191,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   sched.kind = st.lr_min < st.lr ? LrSchedule::Kind::Cosine : LrSchedule::Kind::Constant;
   sched.base = st.lr;
   sched.min_lr = st.lr_min;
-  sched.total_steps = st.steps;
+  sched.total_steps = st.lr_steps > 0 ? st.lr_steps : st.steps;
 
   SdfTrainResult res;
   res.model = st.out;
@@ -204,6 +205,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
 
   const Json train_json = {{"data", st.data},          {"train_split", st.train_split}, {"batch", st.batch},
                            {"points", st.points},      {"lr", st.lr},                   {"lr_min", st.lr_min},
+                           {"lr_steps", st.lr_steps},
                            {"weight_decay", st.weight_decay}, {"grad_clip", st.grad_clip},
                            {"seed", st.seed},          {"max_shapes", st.max_shapes},   {"steps", st.steps},
                            {"train_shapes", train.size()}};

@@ -23,6 +23,7 @@ struct SdfTrainSettings {
   int points = 1024;                ///< SDF samples per item per step
   double lr = 1e-4;                 ///< Adam (beta1 0.5 as DISN)
   double lr_min = 0.0;              ///< cosine decay to this value over `steps` (lr_min = lr: constant)
+  long lr_steps = 0;                ///< steps over which the cosine decays (0 = `steps`; more: stop mid-decay)
   double weight_decay = 1e-5;
   double grad_clip = 0.0;           ///< clip the gradient norm (0 = off)
   int val_every = 500;              ///< validate + checkpoint every N steps (and at the end)

@@ -131,6 +131,23 @@ TEST_CASE("resumed training continues bit for bit") {
   const Checkpoint a = load_checkpoint((root / "straight.ckpt").string());
   const Checkpoint b = load_checkpoint((root / "split.ckpt").string());
   CHECK(a.block("params") == b.block("params"));
+  // A decaying rate with its horizon fixed by lr_steps: a 3-step run resumed to 6 steps equals 6 straight steps
+  // (without lr_steps the 3-step run would decay over 3 steps, and the runs would differ).
+  st.lr_min = st.lr / 10;
+  st.lr_steps = 6;
+  st.resume = false;
+  st.out = (root / "cos_straight.ckpt").string();
+  st.steps = 6;
+  train_sdf(st);
+  st.out = (root / "cos_split.ckpt").string();
+  st.steps = 3;
+  train_sdf(st);
+  st.steps = 6;
+  st.resume = true;
+  train_sdf(st);
+  CHECK(load_checkpoint((root / "cos_straight.ckpt").string()).block("params") ==
+        load_checkpoint((root / "cos_split.ckpt").string()).block("params"));
+  CHECK(a.block("params") != load_checkpoint((root / "cos_straight.ckpt").string()).block("params"));
   // A different configuration refuses to resume.
   st.net.decoder = {16, 8};
   CHECK_THROWS_AS(train_sdf(st), InvalidInput);
