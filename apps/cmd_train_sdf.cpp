@@ -52,6 +52,7 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   s.points = 2048;
   s.lr = 5e-4;
   s.lr_min = 1e-5;
+  s.lr_steps = 13000;  // stop mid-decay (lr 2.5e-4 at step 6600): measured better than a full decay
   s.net.extra_convs = 0;
   o->encoder = join(s.net.encoder_channels);
   o->point_mlp = join(s.net.point_mlp);
@@ -72,8 +73,9 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   app.add_option("--lr-min", s.lr_min, "cosine decay of the learning rate to this value at the end of the decay (= --lr: constant)")
       ->capture_default_str();
   app.add_option("--lr-steps", s.lr_steps,
-                 "steps over which the cosine decay runs (0 = --steps; larger: stop before the decay ends, e.g. "
-                 "--steps 6605 --lr-steps 13000 is the shipped model's schedule)")
+                 "steps over which the cosine decay runs (0 = --steps; larger: training stops before the decay ends; "
+                 "the default stops at step 6600 of 13000 as the shipped model did: measured better than a full "
+                 "decay)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--weight-decay", s.weight_decay, "L2 weight decay (coupled, as DISN's regulariser)")
