@@ -136,12 +136,16 @@ MatrixXfR read_npy(const std::string& path) {
   return m;
 }
 
-std::string fnv1a_hex(const std::string& bytes) {
-  uint64_t h = 1469598103934665603ULL;
-  for (unsigned char c : bytes) {
-    h ^= c;
-    h *= 1099511628211ULL;
+uint64_t fnv1a(const char* data, size_t n, uint64_t h) {
+  for (size_t i = 0; i < n; ++i) {
+    h ^= static_cast<unsigned char>(data[i]);
+    h *= 0x100000001b3ULL;
   }
+  return h;
+}
+
+std::string fnv1a_hex(const std::string& bytes) {
+  const uint64_t h = fnv1a(bytes.data(), bytes.size(), kFnv1aHexStart);
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
   return buf;

@@ -31,7 +31,14 @@ void write_npy(const std::string& path, const MatrixXfR& m);
 /// Reads '<f4' or '<f8' 1-D/2-D C-order arrays (converted to float32). IoError on anything else.
 MatrixXfR read_npy(const std::string& path);
 
-/// 64-bit FNV-1a of bytes, printed as 16 hex digits (identifies a source file in norm.json).
+/// 64-bit FNV-1a of `n` bytes, continuing from `h` (the offset basis by default: continue with a previous result
+/// to hash concatenated data without copying it).
+uint64_t fnv1a(const char* data, size_t n, uint64_t h = 0xcbf29ce484222325ULL);
+/// The start value of fnv1a_hex: one digit short of FNV's offset basis (14695981039346656037), a slip kept on
+/// purpose: source hashes in norm.json, the per-shape sample seeds and the sdf.vdb UUIDs are derived from it, and
+/// changing it would change every prepared dataset's bytes.
+constexpr uint64_t kFnv1aHexStart = 1469598103934665603ULL;
+/// fnv1a(bytes, kFnv1aHexStart), printed as 16 hex digits (identifies a source file in norm.json).
 std::string fnv1a_hex(const std::string& bytes);
 
 /// Lower-case extension without the dot ("mesh.PLY" -> "ply"); "" when none.

@@ -1,6 +1,7 @@
 #include "nets/checkpoint.h"
 
 #include "core/error.h"
+#include "core/files.h"
 
 #include <cmath>
 #include <cstring>
@@ -10,15 +11,6 @@ namespace {
 
 constexpr char kMagic[8] = {'S', 'D', 'F', 'K', 'I', 'T', 'C', 'K'};
 constexpr size_t kPrefix = 8 + 4 + 8;
-
-uint64_t fnv1a(const char* p, size_t n) {
-  uint64_t h = 0xcbf29ce484222325ULL;
-  for (size_t i = 0; i < n; ++i) {
-    h ^= static_cast<unsigned char>(p[i]);
-    h *= 0x100000001b3ULL;
-  }
-  return h;
-}
 
 template <typename U>
 void put(std::string& s, U v) {

@@ -123,17 +123,9 @@ void make_uuid_deterministic(std::string& bytes) {
   if (bytes.size() < kOffset + 36) return;
   for (size_t dash : {8, 13, 18, 23})
     if (bytes[kOffset + dash] != '-') return;  // unknown layout: leave it alone
-  // fnv1a_hex(rest) + fnv1a_hex(rest + "sdfkit") (core/files.h), in one pass over the bytes without copies.
-  uint64_t a = 1469598103934665603ULL;
-  for (size_t i = kOffset + 36; i < bytes.size(); ++i) {
-    a ^= static_cast<unsigned char>(bytes[i]);
-    a *= 1099511628211ULL;
-  }
-  uint64_t b = a;
-  for (const char c : std::string("sdfkit")) {
-    b ^= static_cast<unsigned char>(c);
-    b *= 1099511628211ULL;
-  }
+  // fnv1a_hex(rest) + fnv1a_hex(rest + "sdfkit"), without copying the bytes after the UUID.
+  const uint64_t a = fnv1a(bytes.data() + kOffset + 36, bytes.size() - (kOffset + 36), kFnv1aHexStart);
+  const uint64_t b = fnv1a("sdfkit", 6, a);
   char buf[33];
   std::snprintf(buf, sizeof buf, "%016llx%016llx", static_cast<unsigned long long>(a),
                 static_cast<unsigned long long>(b));
