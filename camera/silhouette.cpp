@@ -1,6 +1,7 @@
 #include "camera/silhouette.h"
 
 #include "core/error.h"
+#include "core/mesh_io.h"
 
 #include <algorithm>
 #include <cmath>
@@ -60,14 +61,9 @@ SilhouetteRenderer::SilhouetteRenderer(const Mesh& mesh, int supersampling, doub
   const Eigen::Index nv = mesh.num_vertices();
   V_.assign(mesh.V.data(), mesh.V.data() + nv * 3);
   F_.reserve(static_cast<size_t>(mesh.num_faces()) * 3);
+  check_face_indices(mesh, "silhouette");
   for (Eigen::Index f = 0; f < mesh.num_faces(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int32_t i = mesh.F(f, k);
-      if (i < 0 || i >= nv)
-        throw InvalidInput("silhouette: face " + std::to_string(f) + " has vertex index " + std::to_string(i) +
-                           " outside [0, " + std::to_string(nv) + ")");
-      F_.push_back(i);
-    }
+    for (int k = 0; k < 3; ++k) F_.push_back(mesh.F(f, k));
 }
 
 Image SilhouetteRenderer::render(const Camera& cam) const {

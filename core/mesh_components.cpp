@@ -1,6 +1,6 @@
 #include "core/mesh_components.h"
 
-#include "core/error.h"
+#include "core/mesh_io.h"
 
 #include <algorithm>
 #include <numeric>
@@ -9,11 +9,7 @@
 namespace sdfkit {
 
 std::vector<int> face_components(const Mesh& mesh, int* count) {
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    for (int k = 0; k < 3; ++k)
-      if (mesh.F(f, k) < 0 || mesh.F(f, k) >= mesh.V.rows())
-        throw InvalidInput("face_components: face " + std::to_string(f) + " uses vertex " +
-                           std::to_string(mesh.F(f, k)) + " of " + std::to_string(mesh.V.rows()));
+  check_face_indices(mesh, "face_components");
   // Union-find over the vertices with path halving; the smaller index becomes the root.
   std::vector<int32_t> parent(static_cast<size_t>(mesh.V.rows()));
   std::iota(parent.begin(), parent.end(), 0);

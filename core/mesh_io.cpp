@@ -329,12 +329,20 @@ Mesh read_mesh(const std::string& path, MeshReport* report) {
   return validate_mesh(mesh, path, report);
 }
 
+void check_face_indices(const Mesh& mesh, const std::string& what) {
+  const Eigen::Index nv = mesh.V.rows();
+  if ((mesh.F.array() >= 0).all() && (mesh.F.array() < nv).all()) return;
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (mesh.F(f, k) < 0 || mesh.F(f, k) >= nv)
+        throw InvalidInput(what + ": face index out of range: face " + std::to_string(f) + " uses vertex " +
+                           std::to_string(mesh.F(f, k)) + " of " + std::to_string(nv));
+}
+
 Mesh validate_mesh(const Mesh& mesh, const std::string& what, MeshReport* report) {
   if (mesh.V.rows() == 0 || mesh.F.rows() == 0) throw InvalidInput(what + ": empty mesh (no vertices or no faces)");
   if (!mesh.V.allFinite()) throw InvalidInput(what + ": non-finite vertex coordinates (NaN or Inf)");
-  const auto nv = static_cast<int32_t>(mesh.V.rows());
-  if ((mesh.F.array() < 0).any() || (mesh.F.array() >= nv).any())
-    throw InvalidInput(what + ": face index out of range (mesh has " + std::to_string(nv) + " vertices)");
+  check_face_indices(mesh, what);
   MeshReport r;
   r.input_faces = static_cast<long>(mesh.F.rows());
   // Zero-area test relative to the mesh size so that tiny but valid meshes are not emptied.
@@ -375,7 +383,7 @@ Mesh validate_mesh(const Mesh& mesh, const std::string& what, MeshReport* report
   out.F.resize(static_cast<Eigen::Index>(keep.size()), 3);
   for (size_t n = 0; n < keep.size(); ++n) out.F.row(static_cast<Eigen::Index>(n)) = mesh.F.row(keep[n]);
   if (out.F.rows() == 0) throw InvalidInput(what + ": every face is degenerate");
-  std::vector<char> used(static_cast<size_t>(nv), 0);
+  std::vector<char> used(static_cast<size_t>(mesh.V.rows()), 0);
   for (Eigen::Index n = 0; n < out.F.size(); ++n) used[static_cast<size_t>(out.F.data()[n])] = 1;
   r.unreferenced_vertices = static_cast<long>(std::count(used.begin(), used.end(), 0));
   if (report) *report = r;

@@ -23,6 +23,10 @@ struct MeshReport {
 /// unusable (empty, non-finite coordinates, out-of-range indices).
 Mesh read_mesh(const std::string& path, MeshReport* report = nullptr);
 
+/// Throws InvalidInput "<what>: face index out of range: face f uses vertex i of n" for the first face that
+/// names a vertex outside [0, V.rows()).
+void check_face_indices(const Mesh& mesh, const std::string& what);
+
 /// Throws InvalidInput (message starts with `what`) if the mesh is empty, has non-finite coordinates or
 /// out-of-range indices. Otherwise returns a copy without degenerate and duplicate faces and fills `report`.
 Mesh validate_mesh(const Mesh& mesh, const std::string& what, MeshReport* report = nullptr);

@@ -1,22 +1,12 @@
 #include "extract/cleanup.h"
 
 #include "core/error.h"
+#include "core/mesh_io.h"
 
 #include <algorithm>
 #include <string>
 
 namespace sdfkit {
-namespace {
-
-void check_indices(const Mesh& mesh, const char* what) {
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    for (int k = 0; k < 3; ++k)
-      if (mesh.F(f, k) < 0 || mesh.F(f, k) >= mesh.V.rows())
-        throw InvalidInput(std::string(what) + ": face " + std::to_string(f) + " uses vertex " +
-                           std::to_string(mesh.F(f, k)) + " of " + std::to_string(mesh.V.rows()));
-}
-
-}  // namespace
 
 std::vector<double> component_sizes(const Mesh& mesh, const std::vector<int>& component, int count,
                                     ComponentMeasure measure) {
@@ -34,7 +24,7 @@ std::vector<double> component_sizes(const Mesh& mesh, const std::vector<int>& co
 }
 
 Mesh remove_unreferenced_vertices(const Mesh& mesh, std::vector<int32_t>* old_to_new) {
-  check_indices(mesh, "remove_unreferenced_vertices");
+  check_face_indices(mesh, "remove_unreferenced_vertices");
   std::vector<int32_t> map(mesh.V.rows(), -1);
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
     for (int k = 0; k < 3; ++k) map[mesh.F(f, k)] = 0;
