@@ -66,17 +66,22 @@ Image resample_coverage(int width, int height, const F& value) {
   return out;
 }
 
+/// Pixel i of a 3 x 137 x 137 network input is foreground when a channel differs from the white background by
+/// more than 0.05.
+bool is_foreground(const Eigen::VectorXf& input, int i) {
+  const int n = kNetImageSize * kNetImageSize;
+  float d = 0;
+  for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(input[c * n + i] - kNetBackground));
+  return d > 0.05f;
+}
+
 }  // namespace
 
 Image input_foreground(const Eigen::VectorXf& input) {
   const int n = kNetImageSize * kNetImageSize;
   require(input.size() == 3 * n, "input_foreground: network input must be 3 x 137 x 137");
   Image out(kNetImageSize, kNetImageSize, 1);
-  for (int i = 0; i < n; ++i) {
-    float d = 0;
-    for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(input[c * n + i] - kNetBackground));
-    out.data[i] = d > 0.05f ? 1.f : 0.f;
-  }
+  for (int i = 0; i < n; ++i) out.data[i] = is_foreground(input, i) ? 1.f : 0.f;
   return out;
 }
 
@@ -114,11 +119,7 @@ Eigen::VectorXf prepare_recon_input(const Image& image, const Image* mask, const
   }
   const int n = kNetImageSize * kNetImageSize;
   long foreground = 0;
-  for (int i = 0; i < n; ++i) {
-    float d = 0;
-    for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(v[c * n + i] - kNetBackground));
-    foreground += d > 0.05f;
-  }
+  for (int i = 0; i < n; ++i) foreground += is_foreground(v, i);
   if (foreground < settings.min_foreground_fraction * n)
     throw InvalidInput(what + ": the image shows only background (" + std::to_string(foreground) +
                        " of " + std::to_string(n) +
