@@ -5,6 +5,7 @@
 #include "camera/views.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/mesh_io.h"
 #include "core/random.h"
 #include "sdf/normalize.h"
 #include "sdf/prepare.h"
@@ -36,11 +37,7 @@ struct ShapeJob {
   bool skipped = false;
 };
 
-bool has_mesh_extension(const fs::path& p) {
-  const std::string e = extension_of(p.string());
-  return e == "obj" || e == "ply" || e == "off" || e == "stl";
-}
-bool is_mesh_file(const fs::path& p) { return has_mesh_extension(p) && fs::is_regular_file(p); }
+bool is_mesh_file(const fs::path& p) { return has_mesh_extension(p.string()) && fs::is_regular_file(p); }
 
 /// Shape id of a mesh below a category folder: its stem when it sits directly in the category, else the name of
 /// the first folder below the category (ShapeNet's <synset>/<id>/models/model_normalized.obj).
@@ -72,7 +69,7 @@ std::vector<ShapeJob> gather(const std::string& input) {
     if (jobs.empty()) throw InvalidInput(input + ": no .obj/.ply/.off/.stl meshes in this folder or its sub-folders");
     return jobs;
   }
-  if (has_mesh_extension(in)) {
+  if (has_mesh_extension(input)) {
     jobs.push_back({"default", in.stem().string(), input});
     return jobs;
   }
@@ -94,7 +91,7 @@ std::vector<ShapeJob> gather(const std::string& input) {
     if (category.empty() || category.find('/') != std::string::npos)
       throw InvalidInput(input + ":" + std::to_string(number) + ": bad category '" + category + "'");
     fs::path p(path);
-    if (!has_mesh_extension(p))  // most often: a mesh with an unknown extension read as a list
+    if (!has_mesh_extension(path))  // most often: a mesh with an unknown extension read as a list
       throw InvalidInput(input + ":" + std::to_string(number) + ": '" + path +
                          "' is not a .obj/.ply/.off/.stl path (a list file names one mesh per line; meshes need one "
                          "of these extensions)");

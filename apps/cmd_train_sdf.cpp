@@ -70,7 +70,8 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   app.add_option("--batch", s.batch, "(shape, view) items per step")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--points", s.points, "SDF samples per item per step")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--lr", s.lr, "Adam learning rate (beta1 = 0.5 as DISN)")->capture_default_str();
-  app.add_option("--lr-min", s.lr_min, "cosine decay of the learning rate to this value at the end of the decay (= --lr: constant)")
+  app.add_option("--lr-min", s.lr_min,
+                 "cosine decay of the learning rate to this value at the end of the decay (= --lr: constant)")
       ->capture_default_str();
   app.add_option("--lr-steps", s.lr_steps,
                  "steps over which the cosine decay runs (0 = --steps; larger: training stops before the decay ends; "

@@ -266,9 +266,14 @@ void weld_identical_vertices(std::vector<Vec3>& V, std::vector<Eigen::Vector3f>&
 
 }  // namespace
 
+bool has_mesh_extension(const std::string& path) {
+  const std::string e = extension_of(path);
+  return e == "obj" || e == "ply" || e == "off" || e == "stl";
+}
+
 Mesh read_mesh(const std::string& path, MeshReport* report) {
   const std::string ext = extension_of(path);
-  if (ext != "obj" && ext != "ply" && ext != "off" && ext != "stl")
+  if (!has_mesh_extension(path))
     throw IoError(path + ": unknown mesh extension '." + ext + "' (expected .obj, .ply, .off or .stl)");
   if (!std::filesystem::is_regular_file(path)) throw IoError(path + ": no such file");
   if (ext == "ply") {

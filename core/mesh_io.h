@@ -23,6 +23,9 @@ struct MeshReport {
 /// unusable (empty, non-finite coordinates, out-of-range indices).
 Mesh read_mesh(const std::string& path, MeshReport* report = nullptr);
 
+/// True when `path` ends in an extension read_mesh reads (.obj, .ply, .off, .stl; case-insensitive).
+bool has_mesh_extension(const std::string& path);
+
 /// Throws InvalidInput "<what>: face index out of range: face f uses vertex i of n" for the first face that
 /// names a vertex outside [0, V.rows()).
 void check_face_indices(const Mesh& mesh, const std::string& what);
