@@ -79,6 +79,15 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
                  "decay)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--init", s.init,
+                 "start from this SDF model's weights (same network flags) instead of the seeded initialisation; "
+                 "fresh optimiser (fine-tuning)");
+  app.add_option("--camera-jitter", s.camera_jitter_deg,
+                 "turn each training camera about the object's vertical axis by a Gaussian angle of this standard "
+                 "deviation in degrees (0 = off): teaches the local features to tolerate an estimated camera's "
+                 "azimuth error")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 180.0));
   app.add_option("--weight-decay", s.weight_decay, "L2 weight decay (coupled, as DISN's regulariser)")
       ->capture_default_str();
   app.add_option("--grad-clip", s.grad_clip, "clip the gradient norm to this value (0 = off)")->capture_default_str();

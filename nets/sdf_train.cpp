@@ -153,6 +153,14 @@ SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, i
 }
 
 
+void jitter_cameras(std::vector<Camera>& cameras, double sigma_deg, uint64_t seed, long step) {
+  Rng rng = Rng::derived(seed ^ 0x6a177e5ULL, static_cast<uint64_t>(step));
+  for (Camera& c : cameras) {
+    const double angle = rng.normal() * sigma_deg * M_PI / 180.0;
+    c.R = c.R * Mat3(Eigen::AngleAxisd(angle, Vec3::UnitY()));
+  }
+}
+
 // ------------------------------------------------------------------------------------------------ training
 SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(const SdfTrainEvent&)>& on_event) {
   flush_denormals_on_this_thread();  // same arithmetic from the first step, resumed or not
@@ -180,9 +188,18 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     val = val_owned.get();
   }
 
+  require(st.camera_jitter_deg >= 0 && st.camera_jitter_deg <= 180, "train sdf: --camera-jitter must be in [0, 180]");
   SdfNet net(st.net);
   net.allocate_grads(true);
   net.init(st.seed);
+  if (!st.init.empty()) {
+    Json init_training;
+    const auto start = load_sdf_model(st.init, &init_training);
+    if (start->config().to_json() != st.net.to_json())
+      throw InvalidInput(st.init + ": --init model has another configuration than the network being trained (" +
+                         start->config().to_json().dump() + " vs " + st.net.to_json().dump() + ")");
+    std::copy(start->params().values.begin(), start->params().values.end(), net.params().values.begin());
+  }
   OptimizerSettings os;
   os.beta1 = 0.5;
   os.weight_decay = st.weight_decay;
@@ -208,7 +225,8 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
                            {"lr_steps", st.lr_steps},
                            {"weight_decay", st.weight_decay}, {"grad_clip", st.grad_clip},
                            {"seed", st.seed},          {"max_shapes", st.max_shapes},   {"steps", st.steps},
-                           {"train_shapes", train.size()}};
+                           {"train_shapes", train.size()}, {"init", st.init},
+                           {"camera_jitter_deg", st.camera_jitter_deg}};
   if (st.resume && fs::exists(st.out)) {
     const Checkpoint ck = load_checkpoint(st.out);
     require_header_match(ck, "config", st.net.to_json(), st.out);
@@ -258,7 +276,8 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   int interval_n = 0;
   const int S = kNetImageSize;
   while (step < st.steps) {
-    const SdfBatch b = sampler.batch(step);
+    SdfBatch b = sampler.batch(step);
+    if (st.camera_jitter_deg > 0) jitter_cameras(b.cameras, st.camera_jitter_deg, st.seed, step);
     const int64_t B = b.size(), N = b.points_per_item;
     images.resize({B, 3, S, S});
     std::copy(b.images.data(), b.images.data() + b.images.size(), images.ptr());

@@ -32,6 +32,12 @@ struct SdfTrainSettings {
   int max_shapes = 0;               ///< use only the first N training shapes (0 = all)
   uint64_t seed = 1;
   bool resume = false;              ///< continue from `out` if it exists
+  /// Start from this model's weights (same configuration) instead of the seeded initialisation; fresh optimiser.
+  std::string init;
+  /// Camera jitter (degrees, 0 = off): each training item's camera is turned about the object's vertical axis by
+  /// a Gaussian angle of this standard deviation before the local features are sampled (the SDF targets stay), so
+  /// that the network tolerates the azimuth errors of an estimated camera. Seeded per (seed, step, item).
+  double camera_jitter_deg = 0;
   double time_limit_seconds = 0;    ///< stop (and save) once this much time has passed (0 = no limit)
 };
 
@@ -67,6 +73,11 @@ SdfTrainResult train_sdf(const SdfTrainSettings& settings,
 SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, int points, uint64_t seed);
 
 /// Save a model (network configuration + parameters; optional training state) / load one for inference.
+/// The camera jitter of SdfTrainSettings::camera_jitter_deg: turns every camera about the object's vertical axis
+/// (R' = R rot_y(a), the look-at orbit's azimuth change; t kept) by a Gaussian angle a of standard deviation
+/// `sigma_deg`, drawn in order from a generator derived from (seed, step).
+void jitter_cameras(std::vector<Camera>& cameras, double sigma_deg, uint64_t seed, long step);
+
 /// load_sdf_model throws IoError naming the file when it is missing, corrupt, or not an SDF model.
 void save_sdf_model(const std::string& path, const SdfNet& net, const Json& training = Json::object());
 std::unique_ptr<SdfNet> load_sdf_model(const std::string& path, Json* training = nullptr);

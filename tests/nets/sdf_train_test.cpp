@@ -154,6 +154,100 @@ TEST_CASE("resumed training continues bit for bit") {
   fs::remove_all(root);
 }
 
+TEST_CASE("camera jitter turns each camera about the object's vertical axis by a seeded Gaussian angle") {
+  const Camera base = look_at(40, 28, 2.6);
+  std::vector<Camera> cams(4000, base);
+  jitter_cameras(cams, 15.0, 7, 11);
+  const Vec3 c0 = -base.R.transpose() * base.t;  // camera centre in the object frame
+  const Vec3 on_axis(0, 0.4, 0);
+  const Eigen::Vector2d px0 = project(base, on_axis);
+  double sum = 0, sum2 = 0;
+  for (const Camera& c : cams) {
+    CHECK((c.R.transpose() * c.R - Mat3::Identity()).norm() < 1e-12);
+    CHECK((c.t - base.t).norm() == 0.0);
+    const Vec3 c1 = -c.R.transpose() * c.t;
+    CHECK(c1.norm() == doctest::Approx(c0.norm()).epsilon(1e-12));  // same distance and elevation:
+    CHECK(c1.y() == doctest::Approx(c0.y()).epsilon(1e-12));         // only the azimuth changes
+    CHECK((project(c, on_axis) - px0).norm() < 1e-9);                // the vertical axis stays in place
+    const double a = std::atan2(c0.x() * c1.z() - c0.z() * c1.x(), c0.x() * c1.x() + c0.z() * c1.z());
+    sum += a;
+    sum2 += a * a;
+  }
+  const double n = static_cast<double>(cams.size()), mean = sum / n, sd = std::sqrt(sum2 / n - mean * mean);
+  CHECK(std::abs(mean) < 4 * (15.0 * M_PI / 180.0) / std::sqrt(n));
+  CHECK(sd * 180.0 / M_PI == doctest::Approx(15.0).epsilon(0.05));
+  // Seeded: the same (seed, step) gives the same cameras, another step others; sigma 0 changes nothing.
+  std::vector<Camera> again(4000, base), other(4000, base), none(3, base);
+  jitter_cameras(again, 15.0, 7, 11);
+  jitter_cameras(other, 15.0, 7, 12);
+  jitter_cameras(none, 0.0, 7, 11);
+  CHECK((again[5].R - cams[5].R).norm() == 0.0);
+  CHECK((other[5].R - cams[5].R).norm() > 1e-6);
+  CHECK((none[2].R - base.R).norm() == 0.0);
+}
+
+TEST_CASE("--init starts from a model's weights, and jittered training is seeded and resumes bit for bit") {
+  const fs::path root = make_torus_dataset("sdfkit_sdf_train_init");
+  SdfTrainSettings st;
+  st.data = root.string();
+  st.val_split = "";
+  st.net = small_config(SdfVariant::TwoStream);
+  st.batch = 2;
+  st.points = 64;
+  st.val_every = 3;
+  st.val_shapes = 1;
+  st.val_points = 64;
+  st.lr_min = st.lr;
+  st.out = (root / "a.ckpt").string();
+  st.steps = 3;
+  train_sdf(st);
+  const auto params = [&](const std::string& name) { return load_checkpoint((root / name).string()).block("params"); };
+  // A step at a vanishing rate from --init leaves the weights where the model had them.
+  SdfTrainSettings ft = st;
+  ft.init = (root / "a.ckpt").string();
+  ft.seed = 9;  // another seeded initialisation, overwritten by the model's weights
+  ft.lr = ft.lr_min = 1e-30;
+  ft.steps = 1;
+  ft.out = (root / "ft.ckpt").string();
+  train_sdf(ft);
+  CHECK(params("ft.ckpt") == params("a.ckpt"));
+  ft.init = "";
+  ft.out = (root / "scratch.ckpt").string();
+  train_sdf(ft);
+  CHECK(params("scratch.ckpt") != params("a.ckpt"));
+  // A model of another configuration is refused, naming the file.
+  ft.init = (root / "a.ckpt").string();
+  ft.net.decoder = {16, 8};
+  ft.out = (root / "bad.ckpt").string();
+  try {
+    train_sdf(ft);
+    FAIL("expected InvalidInput");
+  } catch (const InvalidInput& e) {
+    CHECK(std::string(e.what()).find("a.ckpt: --init model has another configuration") != std::string::npos);
+  }
+  CHECK_FALSE(fs::exists(root / "bad.ckpt"));
+  // Jitter changes the training; a jittered run split by a resume equals the straight one.
+  st.camera_jitter_deg = 20;
+  st.steps = 6;
+  st.out = (root / "j_straight.ckpt").string();
+  train_sdf(st);
+  st.out = (root / "j_split.ckpt").string();
+  st.steps = 3;
+  train_sdf(st);
+  st.steps = 6;
+  st.resume = true;
+  train_sdf(st);
+  CHECK(params("j_straight.ckpt") == params("j_split.ckpt"));
+  st.camera_jitter_deg = 0;
+  st.resume = false;
+  st.out = (root / "plain.ckpt").string();
+  train_sdf(st);
+  CHECK(params("plain.ckpt") != params("j_straight.ckpt"));
+  st.camera_jitter_deg = -1;
+  CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  fs::remove_all(root);
+}
+
 TEST_CASE("a checkpoint of every variant loads back to the same predictions; damaged files are refused") {
   const fs::path dir = fs::temp_directory_path() / "sdfkit_sdf_models";
   fs::create_directories(dir);
