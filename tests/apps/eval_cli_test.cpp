@@ -82,7 +82,7 @@ TEST_CASE("eval of a sphere against a larger sphere, onet: CD and IoU against cl
   CHECK(m["normal_consistency"].get<double>() > 0.99);
 }
 
-TEST_CASE("eval of a sphere against a larger sphere, disn and tmnet: IoU and EMD bounds; JSON, CSV and -o agree") {
+TEST_CASE("eval of a sphere against a larger sphere, disn and tmnet: IoU and EMD bounds, JSON, CSV and -o agree") {
   const fs::path dir = scratch() / "pair";
   fs::create_directories(dir);
   const fs::path pred = dir / "pred.obj", gt = dir / "gt.ply";
@@ -218,7 +218,7 @@ TEST_CASE("eval refuses bad input with one line naming the file (exit 1)") {
   CHECK(r.code == 1);
 }
 
-TEST_CASE("eval of folders with --split: only the listed shapes are scored; a listed shape without GT is reported") {
+TEST_CASE("eval of folders with --split: only the listed shapes are scored, a listed shape without GT is reported") {
   const fs::path root = scratch() / "split";
   fs::remove_all(root);
   const fs::path gt = root / "gt", pred = root / "pred";

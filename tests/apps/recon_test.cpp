@@ -116,7 +116,7 @@ TEST_CASE("recon refuses corrupt, empty and background-only images with one clea
 
 // Issue 7: test-time camera refinement (recon --refine-camera). A small sweep keeps the case fast; the JSON reports
 // the initial camera and the silhouette IoU before/after; the mesh is closed (determinism: tests/recon).
-TEST_CASE("recon --refine-camera: reported, closed; refused without an object") {
+TEST_CASE("recon --refine-camera: reported, closed, refused without an object") {
   REQUIRE(have_models());
   const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli" / "refine";
   fs::remove_all(dir);

@@ -47,7 +47,7 @@ TEST_CASE("image: PNG round trip is exact on 8-bit values, alpha kept straight")
   fs::remove_all(dir);
 }
 
-TEST_CASE("image: PNG quantisation clamps and rounds; EXR keeps floats") {
+TEST_CASE("image: PNG quantisation clamps and rounds, EXR keeps floats") {
   const std::string dir = tmpdir();
   Image img(4, 1, 1);
   img.data = {-0.5f, 0.5f, 1.7f, 0.2f};

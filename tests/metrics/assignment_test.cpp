@@ -206,7 +206,7 @@ TEST_CASE("auction: AVX2 and portable bid scans give the same prices, bids and a
   set_avx2_enabled(saved);
 }
 
-TEST_CASE("EdgeRows: rows stay sorted with the lowest cost per column while they grow; bad input is refused") {
+TEST_CASE("EdgeRows: rows stay sorted with the lowest cost per column while they grow, bad input is refused") {
   EdgeRows g(4);
   CHECK(g.add(2, {{3, 1.0}, {1, 2.0}, {3, 0.5}}) == 2);
   CHECK(g.add(0, {{0, 1.0}}) == 1);

@@ -53,7 +53,7 @@ TEST_CASE("Chamfer distances and F-scores match brute force on random clouds") {
   }
 }
 
-TEST_CASE("Chamfer of identical sets is 0; of a shifted set it is the shift; F-score threshold is strict") {
+TEST_CASE("Chamfer of identical sets is 0, of a shifted set it is the shift, F-score threshold is strict") {
   const Points a = random_cloud(300, 3);
   CHECK(chamfer(a, a).cd_squared() == 0.0);
   // Single points at distance exactly 0.5: F at threshold 0.5 is 0 (strict <), slightly above it is 1.

@@ -125,7 +125,7 @@ TEST_CASE("sparse + certified EMD equals the dense solver on degenerate and clus
   }
 }
 
-TEST_CASE("EMD of a permutation of the same cloud is 0; of a translated cloud it is n |t|") {
+TEST_CASE("EMD of a permutation of the same cloud is 0, of a translated cloud it is n |t|") {
   const Points a = random_cloud(500, 5);
   const Points b = permuted(a, 6);
   const EmdResult e = emd(a, b);
@@ -138,7 +138,7 @@ TEST_CASE("EMD of a permutation of the same cloud is 0; of a translated cloud it
   CHECK(emd(a, c).total == doctest::Approx(500 * Vec3(0.01, -0.02, 0.005).norm()).epsilon(1e-9));
 }
 
-TEST_CASE("exact EMD does not depend on the thread count; approx EMD is deterministic and above the optimum") {
+TEST_CASE("exact EMD does not depend on the thread count, approx EMD is deterministic and above the optimum") {
   const Points a = random_cloud(300, 21), b = random_cloud(300, 22, 0.9);
   EmdResult one, two, ap1, ap2;
   {

@@ -102,7 +102,7 @@ TEST_CASE("nearest grid: degenerate sets and ties") {
   }
 }
 
-TEST_CASE("nearest grid: same answers with one or two threads; bad input") {
+TEST_CASE("nearest grid: same answers with one or two threads, bad input") {
   const Points set = random_cloud(5000, 13), queries = random_cloud(5000, 14, 1.1);
   const NearestGrid grid(set);
   Eigen::VectorXi i1, i2;

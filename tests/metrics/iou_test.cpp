@@ -64,7 +64,7 @@ TEST_CASE("triangle/box overlap against dense point sampling of the triangle") {
   CHECK(triangle_box_overlap(Vec3(-2, -2, 0.1), Vec3(2, -2, 0.1), Vec3(0, 3, 0.1), c, h));
 }
 
-TEST_CASE("voxelised boxes: exact cell counts and IoU; DISN's indexing") {
+TEST_CASE("voxelised boxes: exact cell counts and IoU, DISN's indexing") {
   const VoxelGridSpec spec;  // (v + 1.1) / 2.4 * 110
   const double h = spec.cell();
   CHECK(h == doctest::Approx(2.4 / 110));
@@ -106,7 +106,7 @@ TEST_CASE("point IoU of two overlapping spheres matches the lens-volume closed f
   CHECK(point_iou(a, a, 1, PointIouSettings{20000}).iou == 1.0);
 }
 
-TEST_CASE("point IoU works for an open mesh; voxel IoU leaks through holes larger than a cell") {
+TEST_CASE("point IoU works for an open mesh, voxel IoU leaks through holes larger than a cell") {
   const Mesh closed = make_box(Vec3(-0.5, -0.5, -0.5), Vec3(0.5, 0.5, 0.5));
   const Mesh open = open_box_top(Vec3(-0.5, -0.5, -0.5), Vec3(0.5, 0.5, 0.5));
   // A box missing one face: the winding number inside is 5/6 (five of six faces' solid angle): still inside.

@@ -108,7 +108,7 @@ TEST_CASE("protocols are deterministic given the seed and independent of the thr
   }
 }
 
-TEST_CASE("point clouds: IoU and normal consistency are null with a note; errors name the input") {
+TEST_CASE("point clouds: IoU and normal consistency are null with a note, errors name the input") {
   Mesh cloud;
   cloud.V = make_icosphere(Vec3::Zero(), 0.5, 2).V;
   const Mesh mesh = make_icosphere(Vec3::Zero(), 0.5, 3);

@@ -125,7 +125,7 @@ TEST_CASE("bilinear sample: reference image coordinates map onto smaller maps (c
   check_sampler(maps, generic, 0, s);
 }
 
-TEST_CASE("bilinear sample: affine maps are reproduced exactly; bad shapes rejected") {
+TEST_CASE("bilinear sample: affine maps are reproduced exactly, bad shapes rejected") {
   TensorD maps({1, 1, 6, 7});
   for (int r = 0; r < 6; ++r)
     for (int c = 0; c < 7; ++c) maps[r * 7 + c] = 0.5 + 2.0 * c - 3.0 * r;

@@ -9,7 +9,7 @@
 
 using namespace sdfkit;
 
-TEST_CASE("Adam: first step matches the closed form; minimises a quadratic") {
+TEST_CASE("Adam: first step matches the closed form, minimises a quadratic") {
   OptimizerSettings s;  // beta1 0.5 (DISN)
   Optimizer opt(s, 2);
   std::vector<double> w = {1.0, -2.0}, g = {0.3, -4.0};

@@ -88,7 +88,7 @@ TEST_CASE("pose net: predictions are valid look-at cameras within the distance r
   CHECK_THROWS_AS(net.predict(bad), InvalidInput);
 }
 
-TEST_CASE("pose net: training on a tiny batch lowers L_cam; model file round trip") {
+TEST_CASE("pose net: training on a tiny batch lowers L_cam, model file round trip") {
   PoseNetSettings s;
   s.width = 4;
   s.image_size = 40;

@@ -248,7 +248,7 @@ TEST_CASE("--init starts from a model's weights, and jittered training is seeded
   fs::remove_all(root);
 }
 
-TEST_CASE("a checkpoint of every variant loads back to the same predictions; damaged files are refused") {
+TEST_CASE("a checkpoint of every variant loads back to the same predictions, damaged files are refused") {
   const fs::path dir = fs::temp_directory_path() / "sdfkit_sdf_models";
   fs::create_directories(dir);
   Rng rng(3);

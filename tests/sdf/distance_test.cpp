@@ -10,7 +10,7 @@
 
 using namespace sdfkit;
 
-TEST_CASE("exact distance: BVH equals brute force; closest point lies on the mesh") {
+TEST_CASE("exact distance: BVH equals brute force, closest point lies on the mesh") {
   const Mesh t = make_torus(Vec3(0.1, 0, 0), 0.6, 0.2, 40, 20);
   const MeshDistance dist(t);
   Rng rng(11);

@@ -6,7 +6,7 @@
 
 using namespace sdfkit;
 
-TEST_CASE("normalisation: box -> centre and half diagonal; result fits the unit sphere exactly") {
+TEST_CASE("normalisation: box -> centre and half diagonal, result fits the unit sphere exactly") {
   const Vec3 lo(1, 2, 3), hi(3, 3, 5);
   const Mesh b = make_box(lo, hi);
   const Normalization n = unit_sphere_normalization(b);
@@ -19,7 +19,7 @@ TEST_CASE("normalisation: box -> centre and half diagonal; result fits the unit 
   CHECK((n.from_object(n.to_object(Vec3(7, 8, 9))) - Vec3(7, 8, 9)).norm() < 1e-12);
 }
 
-TEST_CASE("normalisation: area-weighted centroid, not the vertex mean; unreferenced vertices ignored") {
+TEST_CASE("normalisation: area-weighted centroid, not the vertex mean, unreferenced vertices ignored") {
   // A big square with a dense cluster of vertices in one corner: the vertex mean moves, the area centroid not.
   Mesh m;
   m.V.resize(5, 3);

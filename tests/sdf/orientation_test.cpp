@@ -7,7 +7,7 @@
 
 using namespace sdfkit;
 
-TEST_CASE("orientation: flipped faces and inside-out parts become outward; volume positive") {
+TEST_CASE("orientation: flipped faces and inside-out parts become outward, volume positive") {
   const Mesh s = make_icosphere(Vec3::Zero(), 1.0, 3);
   CHECK(is_closed_oriented(s));
   const Mesh flipped = test::flip_every(s, 3);

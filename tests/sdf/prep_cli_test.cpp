@@ -67,7 +67,7 @@ TEST_CASE("sdfkit prep: a batch with bad files exits 2, writes the good shapes a
   fs::remove_all(dir);
 }
 
-TEST_CASE("sdfkit prep: same command twice gives byte-identical outputs; reruns resume; shards split the work") {
+TEST_CASE("sdfkit prep: same command twice gives byte-identical outputs, reruns resume, shards split the work") {
   const fs::path dir = fs::temp_directory_path() / "sdfkit_prep_cli_repro";
   fs::remove_all(dir);
   write_mesh((dir / "in" / "c" / "box.obj").string(), make_box(Vec3::Constant(-1), Vec3(1, 2, 1)));

@@ -11,7 +11,7 @@
 using namespace sdfkit;
 namespace fs = std::filesystem;
 
-TEST_CASE("prepare: writes the four files, norm.json last; complete shapes are skipped; output is reproducible") {
+TEST_CASE("prepare: writes the four files, norm.json last, complete shapes are skipped, output is reproducible") {
   const fs::path dir = fs::temp_directory_path() / "sdfkit_prepare_test";
   fs::remove_all(dir);
   const std::string src = (dir / "src" / "box.obj").string();

@@ -19,7 +19,7 @@ SparseSdfSettings coarse() {
 }
 }  // namespace
 
-TEST_CASE("samples: four equal bins on d = sdf - 0.003; every stored sdf is the exact distance") {
+TEST_CASE("samples: four equal bins on d = sdf - 0.003, every stored sdf is the exact distance") {
   SampleSettings ss;
   ss.count = 4000;
   ss.seed = 9;
@@ -75,7 +75,7 @@ TEST_CASE("samples: a plate thinner than the inner bins redistributes, keeps the
   CHECK(S.allFinite());
 }
 
-TEST_CASE("samples: same seed -> identical bytes for 1 and 2 threads; uniform share; other seed differs") {
+TEST_CASE("samples: same seed -> identical bytes for 1 and 2 threads, uniform share, other seed differs") {
   const Mesh m = make_torus(Vec3::Zero(), 0.6, 0.25, 64, 32);
   const SparseSdf sdf = SparseSdf::from_mesh(m, coarse());
   SampleSettings ss;

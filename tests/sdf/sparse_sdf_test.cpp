@@ -84,7 +84,7 @@ TEST_CASE("sparse SDF: inside tiles beyond the band are negative, outside positi
   CHECK(sdf.active_voxel_count() < 257L * 257 * 257 / 4);
 }
 
-TEST_CASE("sparse SDF: unsigned mode has no negative values; batch values equal single values") {
+TEST_CASE("sparse SDF: unsigned mode has no negative values, batch values equal single values") {
   SparseSdfSettings s;
   s.voxel_size = 0.03;
   s.sign = SignMethod::None;
@@ -99,7 +99,7 @@ TEST_CASE("sparse SDF: unsigned mode has no negative values; batch values equal 
   for (int i = 0; i < 50; ++i) CHECK(v[i] == sdf.value(P.row(i).transpose()));
 }
 
-TEST_CASE("sparse SDF: .vdb round trip; identical grids give identical bytes") {
+TEST_CASE("sparse SDF: .vdb round trip, identical grids give identical bytes") {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / "sdfkit_sparse_sdf_test";
   fs::create_directories(dir);

@@ -22,7 +22,7 @@ Mesh open_box() {  // unit box without its top (+z) face
 }
 }  // namespace
 
-TEST_CASE("winding number: 1 inside, 0 outside a closed sphere; matches brute force everywhere") {
+TEST_CASE("winding number: 1 inside, 0 outside a closed sphere, matches brute force everywhere") {
   const Mesh s = make_icosphere(Vec3(0.1, -0.2, 0.3), 0.8, 4);  // 5120 triangles
   const WindingNumber wn(s, 2.0);
   Rng rng(7);
@@ -41,7 +41,7 @@ TEST_CASE("winding number: 1 inside, 0 outside a closed sphere; matches brute fo
   MESSAGE("max |fast - brute| on the sphere: " << max_err);
 }
 
-TEST_CASE("winding number: larger beta is more accurate; batch query equals single queries") {
+TEST_CASE("winding number: larger beta is more accurate, batch query equals single queries") {
   const Mesh t = make_torus(Vec3::Zero(), 0.7, 0.25, 48, 24);
   const WindingNumber coarse(t, 1.0), fine(t, 4.0);
   Rng rng(3);

@@ -157,7 +157,7 @@ TEST_CASE("write_benchmark is byte-identical for a seed, whatever the thread cou
   CHECK(same == 0);  // a different seed changes every shape
 }
 
-TEST_CASE("rewriting a smaller benchmark removes the earlier run's extra shapes; foreign folders are refused") {
+TEST_CASE("rewriting a smaller benchmark removes the earlier run's extra shapes, foreign folders are refused") {
   TempDir dir("stale");
   SynthSettings s;
   s.per_category = 4;

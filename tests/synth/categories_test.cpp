@@ -174,7 +174,7 @@ TEST_CASE("chair slats are thin: below 2 voxels at 64^3, above 1 voxel at 256^3"
                                            << ", 1 voxel at 256^3 = " << vox256 << ")");
 }
 
-TEST_CASE("same seed -> identical shape; different seeds -> different shapes") {
+TEST_CASE("same seed -> identical shape, different seeds -> different shapes") {
   for (size_t c = 0; c < categories().size(); ++c) {
     CAPTURE(categories()[c].name);
     const SynthShape a = generate_shape(c, 42), b = generate_shape(c, 42), d = generate_shape(c, 43);
