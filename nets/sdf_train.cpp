@@ -193,8 +193,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   net.allocate_grads(true);
   net.init(st.seed);
   if (!st.init.empty()) {
-    Json init_training;
-    const auto start = load_sdf_model(st.init, &init_training);
+    const auto start = load_sdf_model(st.init);
     if (start->config().to_json() != st.net.to_json())
       throw InvalidInput(st.init + ": --init model has another configuration than the network being trained (" +
                          start->config().to_json().dump() + " vs " + st.net.to_json().dump() + ")");

@@ -36,7 +36,7 @@ struct SdfTrainSettings {
   std::string init;
   /// Camera jitter (degrees, 0 = off): each training item's camera is turned about the object's vertical axis by
   /// a Gaussian angle of this standard deviation before the local features are sampled (the SDF targets stay), so
-  /// that the network tolerates the azimuth errors of an estimated camera. Seeded per (seed, step, item).
+  /// that the network tolerates the azimuth errors of an estimated camera. Seeded per (seed, step) (jitter_cameras).
   double camera_jitter_deg = 0;
   double time_limit_seconds = 0;    ///< stop (and save) once this much time has passed (0 = no limit)
 };
