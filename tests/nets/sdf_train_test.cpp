@@ -57,6 +57,36 @@ SdfNetConfig small_config(SdfVariant v) {
   return c;
 }
 
+/// A tiny constant-rate training run on the dataset at `root` (no validation split, 2 items x 64 points a step).
+SdfTrainSettings tiny_run(const fs::path& root, SdfVariant v) {
+  SdfTrainSettings st;
+  st.data = root.string();
+  st.val_split = "";
+  st.net = small_config(v);
+  st.batch = 2;
+  st.points = 64;
+  st.val_every = 3;
+  st.val_shapes = 1;
+  st.val_points = 64;
+  st.lr_min = st.lr;
+  return st;
+}
+
+/// Trains `st` for 6 steps into ROOT/NAME_straight.ckpt, and for 3 steps then resumed to 6 into
+/// ROOT/NAME_split.ckpt; returns the resumed run's result.
+SdfTrainResult straight_and_split(SdfTrainSettings st, const fs::path& root, const std::string& name) {
+  st.resume = false;
+  st.out = (root / (name + "_straight.ckpt")).string();
+  st.steps = 6;
+  train_sdf(st);
+  st.out = (root / (name + "_split.ckpt")).string();
+  st.steps = 3;
+  train_sdf(st);
+  st.steps = 6;
+  st.resume = true;
+  return train_sdf(st);
+}
+
 }  // namespace
 
 TEST_CASE("train sdf overfits one shape: IoU > 0.95 on a grid against the exact torus") {
@@ -108,47 +138,23 @@ TEST_CASE("train sdf overfits one shape: IoU > 0.95 on a grid against the exact 
 
 TEST_CASE("resumed training continues bit for bit") {
   const fs::path root = make_torus_dataset("sdfkit_sdf_train_resume");
-  SdfTrainSettings st;
-  st.data = root.string();
-  st.val_split = "";
-  st.net = small_config(SdfVariant::OneStream);
-  st.batch = 2;
-  st.points = 64;
-  st.val_every = 3;
-  st.val_shapes = 1;
-  st.val_points = 64;
-  st.lr_min = st.lr;  // constant rate: the schedule must not depend on --steps, which differs between the runs
-  st.out = (root / "straight.ckpt").string();
-  st.steps = 6;
-  train_sdf(st);
-  st.out = (root / "split.ckpt").string();
-  st.steps = 3;
-  train_sdf(st);
-  st.steps = 6;
-  st.resume = true;
-  const SdfTrainResult r = train_sdf(st);
+  // Constant rate (tiny_run): the schedule must not depend on --steps, which differs between the runs.
+  SdfTrainSettings st = tiny_run(root, SdfVariant::OneStream);
+  const auto params = [&](const std::string& name) { return load_checkpoint((root / name).string()).block("params"); };
+  const SdfTrainResult r = straight_and_split(st, root, "const");
   CHECK(r.start_step == 3);
-  const Checkpoint a = load_checkpoint((root / "straight.ckpt").string());
-  const Checkpoint b = load_checkpoint((root / "split.ckpt").string());
-  CHECK(a.block("params") == b.block("params"));
+  CHECK(params("const_straight.ckpt") == params("const_split.ckpt"));
   // A decaying rate with its horizon fixed by lr_steps: a 3-step run resumed to 6 steps equals 6 straight steps
   // (without lr_steps the 3-step run would decay over 3 steps, and the runs would differ).
   st.lr_min = st.lr / 10;
   st.lr_steps = 6;
-  st.resume = false;
-  st.out = (root / "cos_straight.ckpt").string();
-  st.steps = 6;
-  train_sdf(st);
+  straight_and_split(st, root, "cos");
+  CHECK(params("cos_straight.ckpt") == params("cos_split.ckpt"));
+  CHECK(params("const_straight.ckpt") != params("cos_straight.ckpt"));
+  // A different configuration refuses to resume.
   st.out = (root / "cos_split.ckpt").string();
-  st.steps = 3;
-  train_sdf(st);
   st.steps = 6;
   st.resume = true;
-  train_sdf(st);
-  CHECK(load_checkpoint((root / "cos_straight.ckpt").string()).block("params") ==
-        load_checkpoint((root / "cos_split.ckpt").string()).block("params"));
-  CHECK(a.block("params") != load_checkpoint((root / "cos_straight.ckpt").string()).block("params"));
-  // A different configuration refuses to resume.
   st.net.decoder = {16, 8};
   CHECK_THROWS_AS(train_sdf(st), InvalidInput);
   fs::remove_all(root);
@@ -188,16 +194,7 @@ TEST_CASE("camera jitter turns each camera about the object's vertical axis by a
 
 TEST_CASE("--init starts from a model's weights, and jittered training is seeded and resumes bit for bit") {
   const fs::path root = make_torus_dataset("sdfkit_sdf_train_init");
-  SdfTrainSettings st;
-  st.data = root.string();
-  st.val_split = "";
-  st.net = small_config(SdfVariant::TwoStream);
-  st.batch = 2;
-  st.points = 64;
-  st.val_every = 3;
-  st.val_shapes = 1;
-  st.val_points = 64;
-  st.lr_min = st.lr;
+  SdfTrainSettings st = tiny_run(root, SdfVariant::TwoStream);
   st.out = (root / "a.ckpt").string();
   st.steps = 3;
   train_sdf(st);
@@ -228,18 +225,10 @@ TEST_CASE("--init starts from a model's weights, and jittered training is seeded
   CHECK_FALSE(fs::exists(root / "bad.ckpt"));
   // Jitter changes the training; a jittered run split by a resume equals the straight one.
   st.camera_jitter_deg = 20;
-  st.steps = 6;
-  st.out = (root / "j_straight.ckpt").string();
-  train_sdf(st);
-  st.out = (root / "j_split.ckpt").string();
-  st.steps = 3;
-  train_sdf(st);
-  st.steps = 6;
-  st.resume = true;
-  train_sdf(st);
+  straight_and_split(st, root, "j");
   CHECK(params("j_straight.ckpt") == params("j_split.ckpt"));
   st.camera_jitter_deg = 0;
-  st.resume = false;
+  st.steps = 6;
   st.out = (root / "plain.ckpt").string();
   train_sdf(st);
   CHECK(params("plain.ckpt") != params("j_straight.ckpt"));
