@@ -3,6 +3,7 @@
 #pragma once
 
 #include "core/files.h"
+#include "scratch.h"
 
 #include <sys/wait.h>
 
@@ -17,9 +18,9 @@ struct CliRun {
   std::string out, err;
 };
 
-/// `sdfkit ARGS`; stdout and stderr pass through files in `scratch` (created if needed).
-inline CliRun run_sdfkit(const std::string& args, const std::filesystem::path& scratch) {
-  std::filesystem::create_directories(scratch);
+/// `sdfkit ARGS`; stdout and stderr pass through files in this process's own scratch folder (scratch.h).
+inline CliRun run_sdfkit(const std::string& args) {
+  const std::filesystem::path scratch = scratch_dir("cli_io");
   const std::string out = (scratch / "stdout.txt").string(), err = (scratch / "stderr.txt").string();
   const int status = std::system((std::string(SDFKIT_EXE) + " " + args + " > " + out + " 2> " + err).c_str());
   CliRun r;

@@ -23,13 +23,9 @@ namespace {
 
 using Run = test::CliRun;
 
-fs::path scratch() {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_eval_cli";
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path scratch() { return test::scratch_dir("eval_cli"); }
 
-Run run(const std::string& args) { return test::run_sdfkit(args, scratch()); }
+Run run(const std::string& args) { return test::run_sdfkit(args); }
 
 std::vector<std::string> split(const std::string& s, char sep) {
   std::vector<std::string> parts;

@@ -22,7 +22,7 @@ const std::string kSource = SDFKIT_SOURCE_DIR;
 
 using Run = test::CliRun;
 
-Run run(const std::string& args) { return test::run_sdfkit(args, fs::temp_directory_path() / "sdfkit_recon_cli"); }
+Run run(const std::string& args) { return test::run_sdfkit(args); }
 
 /// Every undirected edge is used by exactly two faces, in opposite directions (closed, consistently oriented).
 bool closed_and_oriented(const Mesh& m) {
@@ -55,7 +55,7 @@ bool have_models() {
 // session-2 pose model gave 0.490; docs/results/pose.md). Both cameras are asserted above 0.5.
 TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with the true camera, closed mesh") {
   REQUIRE_MESSAGE(have_models(), "the shipped models data/models/sdf.ckpt and pose.ckpt are missing");
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli" / "example";
+  const fs::path dir = test::scratch_dir("recon_cli") / "example";
   fs::remove_all(dir);
   const std::string img = kSource + "/data/examples/car_0000.png";
   const std::string gt = kSource + "/data/examples/gt/car_0000.ply";
@@ -81,7 +81,7 @@ TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with th
 
 TEST_CASE("recon refuses corrupt, empty and background-only images with one clear line and exit 1") {
   REQUIRE(have_models());
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli" / "bad";
+  const fs::path dir = test::scratch_dir("recon_cli") / "bad";
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string png = read_file(kSource + "/data/examples/chair_0003.png");
@@ -118,7 +118,7 @@ TEST_CASE("recon refuses corrupt, empty and background-only images with one clea
 // the initial camera and the silhouette IoU before/after; the mesh is closed (determinism: tests/recon).
 TEST_CASE("recon --refine-camera: reported, closed, refused without an object") {
   REQUIRE(have_models());
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_recon_cli" / "refine";
+  const fs::path dir = test::scratch_dir("recon_cli") / "refine";
   fs::remove_all(dir);
   const std::string img = kSource + "/data/examples/car_0000.png";
   const std::string flags = " --res 33 --no-preview --json --refine-camera --refine-res 17 --refine-sweep 30 "

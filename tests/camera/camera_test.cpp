@@ -2,6 +2,7 @@
 #include "camera/rotation6d.h"
 #include "core/error.h"
 #include "core/random.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -206,7 +207,7 @@ TEST_CASE("camera: JSON round trip and errors") {
   CHECK((back.t - cam.t).norm() == 0);
   CHECK(back.width == 137);
 
-  const std::string dir = (std::filesystem::temp_directory_path() / "sdfkit_camera_test").string();
+  const std::string dir = test::scratch_dir("camera_test").string();
   write_camera(dir + "/00.json", cam);
   const Camera file = read_camera(dir + "/00.json");
   CHECK((file.R - cam.R).norm() == 0);

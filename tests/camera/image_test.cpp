@@ -1,6 +1,7 @@
 #include "camera/image.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -13,9 +14,7 @@ namespace fs = std::filesystem;
 
 namespace {
 std::string tmpdir() {
-  const fs::path p = fs::temp_directory_path() / ("sdfkit_image_test_" + std::to_string(::getpid()));
-  fs::create_directories(p);
-  return p.string();
+  return test::scratch_dir("image_test").string();
 }
 
 Image gradient(int w, int h, int c) {

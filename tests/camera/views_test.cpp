@@ -2,6 +2,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/primitives.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -14,7 +15,7 @@ namespace fs = std::filesystem;
 
 namespace {
 std::string tmpdir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("sdfkit_views_test_" + std::to_string(::getpid())) / name;
+  const fs::path p = test::scratch_dir("views_test") / name;
   fs::remove_all(p);
   return p.string();
 }

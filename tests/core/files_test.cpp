@@ -1,6 +1,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/random.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -10,7 +11,7 @@ using namespace sdfkit;
 namespace fs = std::filesystem;
 
 TEST_CASE("npy round trip is exact and readable as NumPy's header layout") {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_core_npy";
+  const fs::path dir = test::scratch_dir("core_npy");
   fs::create_directories(dir);
   MatrixXfR m(5, 4);
   for (int i = 0; i < m.size(); ++i) m.data()[i] = 0.25f * static_cast<float>(i) - 1.f;
@@ -29,7 +30,7 @@ TEST_CASE("npy round trip is exact and readable as NumPy's header layout") {
 }
 
 TEST_CASE("atomic write leaves no file behind when the writer throws") {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_core_atomic";
+  const fs::path dir = test::scratch_dir("core_atomic");
   fs::remove_all(dir);
   const std::string path = (dir / "x.txt").string();
   CHECK_THROWS(write_file_atomic(path, [](std::ostream& o) {

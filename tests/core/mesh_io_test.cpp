@@ -1,6 +1,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/mesh_io.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -23,7 +24,7 @@ Mesh tetra() {
 }  // namespace
 
 TEST_CASE("mesh writers and the reader round-trip every format") {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_core_meshio";
+  const fs::path dir = test::scratch_dir("core_meshio");
   fs::create_directories(dir);
   Mesh m = tetra();
   m.colors = Colors::Constant(4, 3, 0.5f);
@@ -93,7 +94,7 @@ std::string ply_binary(const std::vector<float>& v, const std::vector<std::array
 }  // namespace
 
 TEST_CASE("reader: broken files give clear errors naming the file (assimp alone is lax or crashes)") {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_core_badmeshes";
+  const fs::path dir = test::scratch_dir("core_badmeshes");
   fs::create_directories(dir);
   const std::vector<float> tet = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
   const std::vector<std::array<int32_t, 3>> faces = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};

@@ -3,6 +3,7 @@
 #include "core/mesh_io.h"
 #include "core/ply_io.h"
 #include "core/primitives.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -162,7 +163,7 @@ TEST_CASE("PLY: round trip through write_mesh (binary, float xyz + uchar colours
   m.colors.resize(m.V.rows(), 3);
   for (Eigen::Index i = 0; i < m.V.rows(); ++i)
     m.colors.row(i) << static_cast<float>(i % 7) / 6.f, static_cast<float>(i % 5) / 4.f, static_cast<float>(i % 3) / 2.f;
-  const fs::path dir = fs::temp_directory_path() / ("sdfkit_ply_test_" + std::to_string(::getpid()));
+  const fs::path dir = test::scratch_dir("ply_test");
   fs::create_directories(dir);
   const std::string path = (dir / "shape.ply").string();
   write_mesh(path, m);
@@ -250,7 +251,7 @@ TEST_CASE("PLY: malformed, truncated and unusable files give errors naming the f
                  "property float z\nend_header\n\x01\x02")
             .find("truncated binary PLY") != std::string::npos);
   // Through read_mesh: the file's path leads the message.
-  const fs::path dir = fs::temp_directory_path() / ("sdfkit_ply_bad_" + std::to_string(::getpid()));
+  const fs::path dir = test::scratch_dir("ply_bad");
   fs::create_directories(dir);
   const std::string path = (dir / "cut.ply").string();
   write_file_atomic(path, [&](std::ostream& o) { o << good.substr(0, good.size() - 20); });

@@ -4,6 +4,7 @@
 #include "core/primitives.h"
 #include "extract/band_grid.h"
 #include "mesh_checks.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -108,7 +109,7 @@ TEST_CASE("band grids without OpenVDB in the caller: from a dense grid, through 
   CHECK(sparse.F == dense.F);
   CHECK((sparse.V - dense.V).cwiseAbs().maxCoeff() < 1e-12);
 
-  const std::string path = std::string("extract_band_test_") + std::to_string(::getpid()) + ".vdb";
+  const std::string path = (test::scratch_dir("extract_band") / "band.vdb").string();
   {
     openvdb::io::File file(path);
     file.write({std::const_pointer_cast<openvdb::FloatGrid>(

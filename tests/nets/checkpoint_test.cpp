@@ -2,6 +2,7 @@
 
 #include "nets/layers.h"
 #include "nets/loss.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -15,9 +16,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string temp_path(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("sdfkit_nets_ck_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return (dir / name).string();
+  return (test::scratch_dir("nets_ck") / name).string();
 }
 
 // A tiny model + its training loop; the batch of step k depends only on (seed, k).

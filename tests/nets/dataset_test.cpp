@@ -4,6 +4,7 @@
 #include "camera/image.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 #include <tbb/global_control.h>
@@ -18,7 +19,7 @@ namespace {
 
 /// A tiny prepared dataset: 3 shapes (2 categories), 2 or 3 views each, samples whose sdf column encodes the row.
 fs::path make_fake_dataset(const std::string& name) {
-  const fs::path root = fs::temp_directory_path() / name;
+  const fs::path root = test::scratch_dir(name);
   fs::remove_all(root);
   const std::vector<std::pair<std::string, int>> shapes = {{"chair/a", 2}, {"chair/b", 3}, {"lamp/c", 2}};
   int s = 0;
@@ -48,7 +49,7 @@ fs::path make_fake_dataset(const std::string& name) {
 }  // namespace
 
 TEST_CASE("dataset lists shapes from a split or from the folder, counts views, reads cameras") {
-  const fs::path root = make_fake_dataset("sdfkit_dataset_list");
+  const fs::path root = make_fake_dataset("dataset_list");
   DatasetSettings all;
   all.root = root.string();
   Dataset d(all);
@@ -109,7 +110,7 @@ TEST_CASE("network_image composites alpha on the background and resamples any si
 }
 
 TEST_CASE("batches are deterministic per step, thread-count independent, and cover each epoch once") {
-  const fs::path root = make_fake_dataset("sdfkit_dataset_batch");
+  const fs::path root = make_fake_dataset("dataset_batch");
   DatasetSettings ds;
   ds.root = root.string();
   Dataset d(ds);

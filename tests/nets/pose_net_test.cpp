@@ -4,6 +4,7 @@
 #include "nets/optim.h"
 #include "nets/checkpoint.h"
 #include "nets/pose_train.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -116,7 +117,7 @@ TEST_CASE("pose net: training on a tiny batch lowers L_cam, model file round tri
   INFO("first ", first, " last ", last);
   CHECK(last < 0.1 * first);
 
-  const auto dir = std::filesystem::temp_directory_path() / ("sdfkit_pose_" + std::to_string(::getpid()));
+  const auto dir = test::scratch_dir("pose_net");
   const std::string path = (dir / "pose.ckpt").string();
   save_pose_model(path, net, {{"note", "test"}});
   Json training;

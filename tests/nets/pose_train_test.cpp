@@ -3,6 +3,7 @@
 #include "camera/camera.h"
 #include "camera/image.h"
 #include "nets/checkpoint.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -16,7 +17,7 @@ namespace {
 
 /// Two shapes x 2 views: white renders of a coloured square whose position depends on the view, exact cameras.
 fs::path make_pose_dataset() {
-  const fs::path root = fs::temp_directory_path() / ("sdfkit_pose_train_" + std::to_string(::getpid()));
+  const fs::path root = test::scratch_dir("pose_train");
   fs::remove_all(root);
   int s = 0;
   for (const std::string id : {"car/a", "lamp/b"}) {

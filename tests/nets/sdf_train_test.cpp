@@ -7,6 +7,7 @@
 #include "core/primitives.h"
 #include "core/random.h"
 #include "nets/checkpoint.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -22,7 +23,7 @@ constexpr double kR = 0.5, kr = 0.2;
 
 /// A one-shape prepared dataset of a torus: exact SDF samples (near-surface and uniform) and one view.
 fs::path make_torus_dataset(const std::string& name) {
-  const fs::path root = fs::temp_directory_path() / name;
+  const fs::path root = test::scratch_dir(name);
   fs::remove_all(root);
   const fs::path dir = root / "ring" / "torus";
   Rng rng(5);
@@ -90,7 +91,7 @@ SdfTrainResult straight_and_split(SdfTrainSettings st, const fs::path& root, con
 }  // namespace
 
 TEST_CASE("train sdf overfits one shape: IoU > 0.95 on a grid against the exact torus") {
-  const fs::path root = make_torus_dataset("sdfkit_sdf_train_overfit");
+  const fs::path root = make_torus_dataset("sdf_train_overfit");
   SdfTrainSettings st;
   st.data = root.string();
   st.val_split = "";
@@ -137,7 +138,7 @@ TEST_CASE("train sdf overfits one shape: IoU > 0.95 on a grid against the exact 
 }
 
 TEST_CASE("resumed training continues bit for bit") {
-  const fs::path root = make_torus_dataset("sdfkit_sdf_train_resume");
+  const fs::path root = make_torus_dataset("sdf_train_resume");
   // Constant rate (tiny_run): the schedule must not depend on --steps, which differs between the runs.
   SdfTrainSettings st = tiny_run(root, SdfVariant::OneStream);
   const auto params = [&](const std::string& name) { return load_checkpoint((root / name).string()).block("params"); };
@@ -193,7 +194,7 @@ TEST_CASE("camera jitter turns each camera about the object's vertical axis by a
 }
 
 TEST_CASE("--init starts from a model's weights, and jittered training is seeded and resumes bit for bit") {
-  const fs::path root = make_torus_dataset("sdfkit_sdf_train_init");
+  const fs::path root = make_torus_dataset("sdf_train_init");
   SdfTrainSettings st = tiny_run(root, SdfVariant::TwoStream);
   st.out = (root / "a.ckpt").string();
   st.steps = 3;
@@ -238,7 +239,7 @@ TEST_CASE("--init starts from a model's weights, and jittered training is seeded
 }
 
 TEST_CASE("a checkpoint of every variant loads back to the same predictions, damaged files are refused") {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_sdf_models";
+  const fs::path dir = test::scratch_dir("sdf_models");
   fs::create_directories(dir);
   Rng rng(3);
   Eigen::VectorXf img(3 * 137 * 137);

@@ -15,7 +15,7 @@ namespace fs = std::filesystem;
 namespace {
 /// `sdfkit prep ARGS`; stdout and stderr kept apart (test::run_sdfkit).
 test::CliRun prep(const std::string& args) {
-  return test::run_sdfkit("prep " + args, fs::temp_directory_path() / "sdfkit_prep_cli_io");
+  return test::run_sdfkit("prep " + args);
 }
 int run(const std::string& args) { return prep(args).code; }
 const char* kFast = " --voxel 0.03 --band 0.14 --samples 800 --views 0 ";
@@ -32,7 +32,7 @@ std::string all_bytes(const fs::path& dir) {
 }  // namespace
 
 TEST_CASE("sdfkit prep: a batch with bad files exits 2, writes the good shapes and reports the bad ones") {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_prep_cli";
+  const fs::path dir = test::scratch_dir("prep_cli");
   fs::remove_all(dir);
   write_mesh((dir / "in" / "boxes" / "a.obj").string(), make_box(Vec3::Constant(-1), Vec3(1, 2, 1)));
   write_mesh((dir / "in" / "boxes" / "b.off").string(), make_torus(Vec3::Zero(), 1, 0.3, 32, 16));
@@ -68,7 +68,7 @@ TEST_CASE("sdfkit prep: a batch with bad files exits 2, writes the good shapes a
 }
 
 TEST_CASE("sdfkit prep: same command twice gives byte-identical outputs, reruns resume, shards split the work") {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_prep_cli_repro";
+  const fs::path dir = test::scratch_dir("prep_cli_repro");
   fs::remove_all(dir);
   write_mesh((dir / "in" / "c" / "box.obj").string(), make_box(Vec3::Constant(-1), Vec3(1, 2, 1)));
   write_mesh((dir / "in" / "c" / "ring.ply").string(), make_torus(Vec3::Zero(), 1, 0.3, 32, 16));

@@ -3,6 +3,7 @@
 #include "core/mesh_io.h"
 #include "sdf/prepare.h"
 #include "test_meshes.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -12,7 +13,7 @@ using namespace sdfkit;
 namespace fs = std::filesystem;
 
 TEST_CASE("prepare: writes the four files, norm.json last, complete shapes are skipped, output is reproducible") {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_prepare_test";
+  const fs::path dir = test::scratch_dir("prepare_test");
   fs::remove_all(dir);
   const std::string src = (dir / "src" / "box.obj").string();
   write_mesh(src, make_box(Vec3(1, 2, 3), Vec3(3, 3, 4)));
@@ -44,7 +45,7 @@ TEST_CASE("prepare: writes the four files, norm.json last, complete shapes are s
 }
 
 TEST_CASE("prepare: an open box gets the iso-surface as ground truth, closed by the winding-number sign") {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_prepare_open";
+  const fs::path dir = test::scratch_dir("prepare_open");
   fs::remove_all(dir);
   PrepareSettings s;
   s.samples.count = 1000;
@@ -59,7 +60,7 @@ TEST_CASE("prepare: an open box gets the iso-surface as ground truth, closed by 
 }
 
 TEST_CASE("prepare: bad input names the file and leaves no complete shape") {
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_prepare_bad";
+  const fs::path dir = test::scratch_dir("prepare_bad");
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string empty = (dir / "empty.obj").string();

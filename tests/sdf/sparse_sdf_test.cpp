@@ -6,6 +6,7 @@
 #include "sdf/normalize.h"
 #include "sdf/winding.h"
 #include "test_meshes.h"
+#include "scratch.h"
 
 #include <doctest/doctest.h>
 
@@ -101,7 +102,7 @@ TEST_CASE("sparse SDF: unsigned mode has no negative values, batch values equal 
 
 TEST_CASE("sparse SDF: .vdb round trip, identical grids give identical bytes") {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "sdfkit_sparse_sdf_test";
+  const fs::path dir = test::scratch_dir("sparse_sdf_test");
   fs::create_directories(dir);
   SparseSdfSettings s;
   s.voxel_size = 0.03;
