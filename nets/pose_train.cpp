@@ -242,12 +242,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     interval_loss += loss;
     ++interval_n;
     if (s.time_limit_seconds > 0 && elapsed() > s.time_limit_seconds) stop = true;
-    PoseTrainEvent ev;
-    ev.step = step;
-    ev.total = s.steps;
-    ev.loss = loss;
-    ev.lr = rate;
-    ev.seconds = prior_seconds + elapsed();
+    PoseTrainEvent ev{step, s.steps, loss, rate, prior_seconds + elapsed()};
     Json row = {step, loss, nullptr, nullptr, nullptr, rate, ev.seconds};
     if (step % s.val_every == 0 || step == s.steps || stop) {
       ev.validated = true;

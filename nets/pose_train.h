@@ -7,6 +7,7 @@
 #include "nets/dataset.h"
 #include "nets/optim.h"
 #include "nets/pose_net.h"
+#include "nets/train_event.h"
 
 #include <functional>
 #include <map>
@@ -50,12 +51,7 @@ struct PoseScores {
   long items = 0;
 };
 
-struct PoseTrainEvent {
-  long step = 0, total = 0;
-  double loss = 0, lr = 0, seconds = 0;
-  bool validated = false;
-  PoseScores val;
-};
+using PoseTrainEvent = TrainEvent<PoseScores>;
 
 struct PoseTrainResult {
   long steps = 0, start_step = 0;

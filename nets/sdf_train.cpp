@@ -297,12 +297,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     ++interval_n;
     const bool out_of_time = st.time_limit_seconds > 0 && elapsed() >= st.time_limit_seconds;
     const bool do_val = step % std::max(1, st.val_every) == 0 || step == st.steps || out_of_time;
-    SdfTrainEvent ev;
-    ev.step = step;
-    ev.total = st.steps;
-    ev.loss = loss;
-    ev.lr = lr;
-    ev.seconds = seconds_before + elapsed();
+    SdfTrainEvent ev{step, st.steps, loss, lr, seconds_before + elapsed()};
     if (step % kLogEvery == 0 || do_val) {
       std::vector<double> row = {static_cast<double>(step), interval_loss / interval_n, lr, ev.seconds,
                                  std::nan(""), std::nan(""), std::nan("")};

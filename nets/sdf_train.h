@@ -5,6 +5,7 @@
 
 #include "nets/dataset.h"
 #include "nets/sdf_net.h"
+#include "nets/train_event.h"
 
 #include <functional>
 #include <memory>
@@ -48,13 +49,7 @@ struct SdfValidation {
   int shapes = 0;
 };
 
-/// Progress report for the CLI.
-struct SdfTrainEvent {
-  long step = 0, total = 0;
-  double loss = 0, lr = 0, seconds = 0;
-  bool validated = false;
-  SdfValidation val;
-};
+using SdfTrainEvent = TrainEvent<SdfValidation>;
 
 struct SdfTrainResult {
   long steps = 0;           ///< final step count
