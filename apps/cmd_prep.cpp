@@ -20,7 +20,6 @@
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <mutex>
 #include <set>
 #include <utility>
 
@@ -190,7 +189,6 @@ std::function<int()> setup_prep(CLI::App& app) {
 
     const auto t0 = std::chrono::steady_clock::now();
     ProgressBar bar("prep", static_cast<long>(jobs.size()));
-    std::mutex print;
     const int threads = o->jobs > 0 ? o->jobs : tbb::this_task_arena::max_concurrency();
     tbb::task_arena arena(std::max(1, threads));
     arena.execute([&] {
@@ -221,19 +219,18 @@ std::function<int()> setup_prep(CLI::App& app) {
           j.status = "ok";
           j.skipped = st.skipped;
           if (!o->quiet && !st.skipped) {
-            std::lock_guard<std::mutex> lock(print);
-            std::printf("%s: %ld voxels, %.1f MB grid, %ld samples, gt %s, %.2f s\n", key.c_str(), st.active_voxels,
-                        st.grid_bytes / 1e6, st.samples.bin_counts[0] + st.samples.bin_counts[1] +
-                                                st.samples.bin_counts[2] + st.samples.bin_counts[3] +
-                                                st.samples.uniform_count,
-                        st.gt_source.c_str(), st.seconds);
-            std::fflush(stdout);
+            char line[512];
+            std::snprintf(line, sizeof line, "%s: %ld voxels, %.1f MB grid, %ld samples, gt %s, %.2f s", key.c_str(),
+                          st.active_voxels, st.grid_bytes / 1e6,
+                          st.samples.bin_counts[0] + st.samples.bin_counts[1] + st.samples.bin_counts[2] +
+                              st.samples.bin_counts[3] + st.samples.uniform_count,
+                          st.gt_source.c_str(), st.seconds);
+            bar.print_line(stdout, line);
           }
         } catch (const std::exception& e) {
           j.status = "failed";
           j.reason = e.what();
-          std::lock_guard<std::mutex> lock(print);
-          std::cerr << (stderr_is_tty() ? "\n" : "") << "sdfkit: error: " << e.what() << '\n';
+          bar.print_line(stderr, std::string("sdfkit: error: ") + e.what());
         }
         bar.tick();
       }, tbb::simple_partitioner());

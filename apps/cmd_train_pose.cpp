@@ -78,14 +78,13 @@ std::function<int()> setup_train_pose(CLI::App& app) {
     PoseTrainSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
     ProgressBar bar("train pose", s.steps);
-    const bool tty = stderr_is_tty();
     const PoseTrainResult r = train_pose(s, [&](const PoseTrainEvent& e) {
       bar.update(e.step);
       if (e.validated) {
         char line[256];
         std::snprintf(line, sizeof line, "step %ld/%ld  L_cam %.5f  lr %.2e  val: L_cam %.5f d3D %.4f d2D %.3f px  (%.0f s)",
                       e.step, e.total, e.loss, e.lr, e.val.loss, e.val.d3d, e.val.d2d, e.seconds);
-        std::fprintf(stderr, "%s%s\n", tty ? "\r\033[K" : "", line);
+        bar.print_line(stderr, line);
       }
     });
     bar.finish();

@@ -115,7 +115,6 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
     s.net.decoder = parse_widths(o->decoder, "--decoder");
     s.time_limit_seconds = o->minutes * 60.0;
     ProgressBar bar("train sdf", s.steps);
-    const bool tty = stderr_is_tty();
     const SdfTrainResult r = train_sdf(s, [&](const SdfTrainEvent& e) {
       bar.update(e.step);
       if (e.validated) {
@@ -123,7 +122,7 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
         std::snprintf(line, sizeof line,
                       "step %ld/%ld  loss %.4f  lr %.2e  val: loss %.4f sign-acc %.4f sample-IoU %.4f  (%.0f s)", e.step,
                       e.total, e.loss, e.lr, e.val.loss, e.val.sign_accuracy, e.val.sample_iou, e.seconds);
-        std::fprintf(stderr, "%s%s\n", tty ? "\r\033[K" : "", line);
+        bar.print_line(stderr, line);
       }
     });
     bar.finish();

@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cstdio>
 #include <functional>
 #include <string>
 #include <vector>
@@ -33,6 +34,9 @@ class ProgressBar {
   ~ProgressBar();
   void update(long done);
   void tick();  ///< done + 1
+  /// Prints `line` (and a newline) to `stream` above the bar: on a terminal the bar's line is cleared first and
+  /// the bar drawn again below. Thread-safe, so that parallel items can report without tearing the bar.
+  void print_line(std::FILE* stream, const std::string& line);
   void finish();
 
  private:

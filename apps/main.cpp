@@ -47,6 +47,14 @@ ProgressBar::~ProgressBar() {
   delete impl_;
 }
 void ProgressBar::tick() { update(impl_->done.fetch_add(1) + 1); }
+namespace {
+void draw_bar(const std::string& label, int permille, long done, long total) {
+  const int width = 30, fill = permille * width / 1000;
+  std::fprintf(stderr, "\r%s [%.*s%*s] %5.1f%% (%ld/%ld)", label.c_str(), fill, "##############################",
+               width - fill, "", permille / 10.0, done, total);
+  std::fflush(stderr);
+}
+}  // namespace
 void ProgressBar::update(long done) {
   impl_->done = done;
   if (!impl_->tty) return;
@@ -54,11 +62,17 @@ void ProgressBar::update(long done) {
   std::lock_guard<std::mutex> lock(impl_->mutex);
   if (permille == impl_->last_permille || impl_->finished) return;
   impl_->last_permille = permille;
-  const int width = 30, fill = permille * width / 1000;
-  std::fprintf(stderr, "\r%s [%.*s%*s] %5.1f%% (%ld/%ld)", impl_->label.c_str(), fill,
-               "##############################", width - fill, "", permille / 10.0, std::min(done, impl_->total),
-               impl_->total);
+  draw_bar(impl_->label, permille, std::min(done, impl_->total), impl_->total);
+}
+void ProgressBar::print_line(std::FILE* stream, const std::string& line) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  const bool drawn = impl_->tty && !impl_->finished && impl_->last_permille >= 0;
+  if (drawn) std::fputs("\r\033[K", stderr);
   std::fflush(stderr);
+  std::fprintf(stream, "%s\n", line.c_str());
+  std::fflush(stream);
+  if (drawn)
+    draw_bar(impl_->label, impl_->last_permille, std::min(impl_->done.load(), impl_->total), impl_->total);
 }
 void ProgressBar::finish() {
   std::lock_guard<std::mutex> lock(impl_->mutex);
