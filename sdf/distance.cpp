@@ -11,6 +11,10 @@
 
 namespace sdfkit {
 namespace {
+/// Distance from x to the interval [lo, hi] (0 inside it): one axis of a point-to-box distance, from the float
+/// bounds of the query layout.
+inline double gap(float lo, float hi, double x) { return std::max(std::max(double(lo) - x, x - double(hi)), 0.0); }
+
 double box_distance2(const Eigen::AlignedBox3d& b, const Vec3& p) {
   const Vec3 d = (b.min() - p).cwiseMax(p - b.max()).cwiseMax(0.0);
   return d.squaredNorm();
@@ -145,9 +149,7 @@ ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound, int32_t hi
         const SlotBound& sb = slot_bound_[static_cast<size_t>(s)];
         const double plane = sb.plane[0] * px + sb.plane[1] * py + sb.plane[2] * pz - sb.plane[3];  // a lower bound
         if (plane * plane > best2) continue;  // cannot be closer (ties still compared below)
-        const double bx = std::max(std::max(double(sb.lo[0]) - px, px - double(sb.hi[0])), 0.0);
-        const double by = std::max(std::max(double(sb.lo[1]) - py, py - double(sb.hi[1])), 0.0);
-        const double bz = std::max(std::max(double(sb.lo[2]) - pz, pz - double(sb.hi[2])), 0.0);
+        const double bx = gap(sb.lo[0], sb.hi[0], px), by = gap(sb.lo[1], sb.hi[1], py), bz = gap(sb.lo[2], sb.hi[2], pz);
         if (bx * bx + by * by + bz * bz > best2) continue;
         const auto& t = bvh_.corners[static_cast<size_t>(s)];
         int region = 0;
@@ -165,9 +167,8 @@ ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound, int32_t hi
     const QueryNode& node = qnodes_[static_cast<size_t>(e.node)];
     double d[2];
     for (int c = 0; c < 2; ++c) {
-      const double dx = std::max(std::max(double(node.lo[0][c]) - px, px - double(node.hi[0][c])), 0.0);
-      const double dy = std::max(std::max(double(node.lo[1][c]) - py, py - double(node.hi[1][c])), 0.0);
-      const double dz = std::max(std::max(double(node.lo[2][c]) - pz, pz - double(node.hi[2][c])), 0.0);
+      const double dx = gap(node.lo[0][c], node.hi[0][c], px), dy = gap(node.lo[1][c], node.hi[1][c], py),
+                   dz = gap(node.lo[2][c], node.hi[2][c], pz);
       d[c] = dx * dx + dy * dy + dz * dz;
     }
     // Push the farther child first so the nearer one is explored first; children beyond the bound not at all.
