@@ -1,83 +1,68 @@
 #include "nets/loss.h"
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace sdfkit {
 namespace {
 
-template <typename T>
-void check_pair(const TensorT<T>& a, const TensorT<T>& b, const char* what) {
-  require(a.size() == b.size() && a.size() > 0, std::string(what) + ": prediction " + shape_string(a.shape) +
-                                                     " and target " + shape_string(b.shape) +
-                                                     " must be non-empty and of equal size");
+/// Mean over the elements of f(pred[i], target[i]) = {value, d value / d pred[i]}, and its gradient (the
+/// derivatives divided by the element count) in `grad` when given. Sizes must match and not be zero.
+template <typename T, typename F>
+double mean_elementwise(const TensorT<T>& pred, const TensorT<T>& target, TensorOut<T> grad, const char* what, F f) {
+  require(pred.size() == target.size() && pred.size() > 0,
+          std::string(what) + ": prediction " + shape_string(pred.shape) + " and target " +
+              shape_string(target.shape) + " must be non-empty and of equal size");
+  if (grad) grad->resize(pred.shape);
+  const double inv = 1.0 / static_cast<double>(pred.size());
+  double s = 0;
+  for (int64_t i = 0; i < pred.size(); ++i) {
+    const auto [value, derivative] = f(static_cast<double>(pred[i]), static_cast<double>(target[i]));
+    s += value;
+    if (grad) (*grad)[i] = static_cast<T>(derivative * inv);
+  }
+  return s * inv;
 }
 
-template <typename T>
-void prepare_grad(const TensorT<T>& pred, TensorOut<T> grad) {
-  if (grad) grad->resize(pred.shape);
-}
+double sign_of(double d) { return d > 0 ? 1.0 : d < 0 ? -1.0 : 0.0; }
 
 }  // namespace
 
 template <typename T>
 double l1_loss(const TensorT<T>& pred, const TensorT<T>& target, TensorOut<T> grad) {
-  check_pair(pred, target, "l1_loss");
-  prepare_grad(pred, grad);
-  const double inv = 1.0 / static_cast<double>(pred.size());
-  double s = 0;
-  for (int64_t i = 0; i < pred.size(); ++i) {
-    const double d = static_cast<double>(pred[i]) - static_cast<double>(target[i]);
-    s += std::abs(d);
-    if (grad) (*grad)[i] = static_cast<T>((d > 0 ? 1.0 : d < 0 ? -1.0 : 0.0) * inv);
-  }
-  return s * inv;
+  return mean_elementwise(pred, target, grad, "l1_loss", [](double p, double t) {
+    const double d = p - t;
+    return std::pair(std::abs(d), sign_of(d));
+  });
 }
 
 template <typename T>
 double l2_loss(const TensorT<T>& pred, const TensorT<T>& target, TensorOut<T> grad) {
-  check_pair(pred, target, "l2_loss");
-  prepare_grad(pred, grad);
-  const double inv = 1.0 / static_cast<double>(pred.size());
-  double s = 0;
-  for (int64_t i = 0; i < pred.size(); ++i) {
-    const double d = static_cast<double>(pred[i]) - static_cast<double>(target[i]);
-    s += d * d;
-    if (grad) (*grad)[i] = static_cast<T>(2.0 * d * inv);
-  }
-  return s * inv;
+  return mean_elementwise(pred, target, grad, "l2_loss", [](double p, double t) {
+    const double d = p - t;
+    return std::pair(d * d, 2.0 * d);
+  });
 }
 
 template <typename T>
 double sdf_weighted_l1_loss(const TensorT<T>& pred, const TensorT<T>& sdf, TensorOut<T> grad,
                             const SdfLossSettings& st) {
-  check_pair(pred, sdf, "sdf_weighted_l1_loss");
-  prepare_grad(pred, grad);
-  const double inv = 1.0 / static_cast<double>(pred.size());
-  double s = 0;
-  for (int64_t i = 0; i < pred.size(); ++i) {
-    const double gt = static_cast<double>(sdf[i]) - st.offset;
+  return mean_elementwise(pred, sdf, grad, "sdf_weighted_l1_loss", [&](double p, double sdf_value) {
+    const double gt = sdf_value - st.offset;
     const double w = gt <= st.threshold ? st.near_weight : 1.0;
-    const double d = static_cast<double>(pred[i]) - st.scale * gt;
-    s += w * std::abs(d);
-    if (grad) (*grad)[i] = static_cast<T>(w * (d > 0 ? 1.0 : d < 0 ? -1.0 : 0.0) * inv);
-  }
-  return s * inv;
+    const double d = p - st.scale * gt;
+    return std::pair(w * std::abs(d), w * sign_of(d));
+  });
 }
 
 template <typename T>
 double bce_with_logits_loss(const TensorT<T>& logits, const TensorT<T>& target, TensorOut<T> grad) {
-  check_pair(logits, target, "bce_with_logits_loss");
-  prepare_grad(logits, grad);
-  const double inv = 1.0 / static_cast<double>(logits.size());
-  double s = 0;
-  for (int64_t i = 0; i < logits.size(); ++i) {
-    const double z = logits[i], y = target[i];
+  return mean_elementwise(logits, target, grad, "bce_with_logits_loss", [](double z, double y) {
     require(y >= 0.0 && y <= 1.0, "bce_with_logits_loss: targets must lie in [0, 1]");
-    s += std::max(z, 0.0) - z * y + std::log1p(std::exp(-std::abs(z)));
     const double sig = z >= 0 ? 1.0 / (1.0 + std::exp(-z)) : std::exp(z) / (1.0 + std::exp(z));
-    if (grad) (*grad)[i] = static_cast<T>((sig - y) * inv);
-  }
-  return s * inv;
+    return std::pair(std::max(z, 0.0) - z * y + std::log1p(std::exp(-std::abs(z))), sig - y);
+  });
 }
 
 #define SDFKIT_LOSS_INSTANTIATE(T)                                                                         \
