@@ -18,6 +18,22 @@ namespace sdfkit::metrics {
 
 namespace {
 
+/// How much more row `row`'s own column `s` costs than its best edge, an edge's cost being its c_q + price(col_q):
+/// 0 when the assignment is optimal for the row. Infinity for an unassigned row (s < 0).
+template <typename Price>
+double row_slack(const EdgeRows& edges, int row, int s, Price price) {
+  if (s < 0) return std::numeric_limits<double>::infinity();
+  double best = std::numeric_limits<double>::infinity(), mine = best;
+  const int* cols = edges.cols(row);
+  const double* costs = edges.costs(row);
+  for (int q = 0, m = edges.size(row); q < m; ++q) {
+    const double w = costs[q] + price(cols[q]);
+    best = std::min(best, w);
+    if (cols[q] == s) mine = w;
+  }
+  return mine - best;
+}
+
 // The best and second-best value of c_q + price[col_q] over one row's edges q = 0 .. m-1, and the column of the
 // best (the first one in edge order among equal values). `best`/`second`/`best_j` hold the state of the edges
 // before (infinity/infinity/-1 to start), so a row can be scanned in pieces: the state after a prefix is
@@ -289,17 +305,7 @@ int SparseAuction::ensure_perfect_matching(const std::function<double(int, int)>
 }
 
 double SparseAuction::slack(int row) const {
-  const int s = col_of_row_[static_cast<size_t>(row)];
-  if (s < 0) return std::numeric_limits<double>::infinity();
-  double best = std::numeric_limits<double>::infinity(), mine = best;
-  const int* cols = edges_.cols(row);
-  const double* costs = edges_.costs(row);
-  for (int q = 0, m = edges_.size(row); q < m; ++q) {
-    const double w = costs[q] + price_[cols[q]];
-    best = std::min(best, w);
-    if (cols[q] == s) mine = w;
-  }
-  return mine - best;
+  return row_slack(edges_, row, col_of_row_[static_cast<size_t>(row)], [&](int j) { return price_[j]; });
 }
 
 void SparseAuction::bid_until_assigned(std::vector<int>& queue) {
@@ -403,17 +409,7 @@ std::vector<double> SparseShortestPath::prices() const {
 }
 
 double SparseShortestPath::slack(int row) const {
-  const int s = col_of_row_[static_cast<size_t>(row)];
-  if (s < 0) return std::numeric_limits<double>::infinity();
-  double best = std::numeric_limits<double>::infinity(), mine = best;
-  const int* cols = edges_.cols(row);
-  const double* costs = edges_.costs(row);
-  for (int q = 0, m = edges_.size(row); q < m; ++q) {
-    const double w = costs[q] - v_[cols[q]];
-    best = std::min(best, w);
-    if (cols[q] == s) mine = w;
-  }
-  return mine - best;
+  return row_slack(edges_, row, col_of_row_[static_cast<size_t>(row)], [&](int j) { return -v_[j]; });
 }
 
 void SparseShortestPath::augment(int f) {
