@@ -280,10 +280,7 @@ ExtractResult adaptive_extract(const BatchField& field, const ExtractSettings& s
     if (!mc::McBuilder::has_crossing(sv, pad)) continue;
     builder.add_cell(c.i, c.j, c.k, sv, pad);
   }
-  r.mesh = builder.finish(s.box_min, voxel, &r.mc.collapsed_triangles);
-  r.mc.cells_with_surface = builder.stats().cells_with_surface;
-  r.mc.snapped_vertices = builder.stats().snapped_vertices;
-  r.mc.centre_vertices = builder.stats().centre_vertices;
+  r.mesh = builder.finish(s.box_min, voxel, &r.mc);
   r.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return r;
 }

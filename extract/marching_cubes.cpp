@@ -60,15 +60,7 @@ Mesh marching_cubes(const DenseGrid& grid, const MarchingCubesSettings& settings
         if (!mc::McBuilder::has_crossing(s, pad)) continue;
         builder.add_cell(i, j, k, s, pad);
       }
-  long collapsed = 0;
-  Mesh mesh = builder.finish(grid.origin, grid.voxel, &collapsed);
-  if (stats) {
-    stats->cells_with_surface = builder.stats().cells_with_surface;
-    stats->collapsed_triangles = collapsed;
-    stats->snapped_vertices = builder.stats().snapped_vertices;
-    stats->centre_vertices = builder.stats().centre_vertices;
-  }
-  return mesh;
+  return builder.finish(grid.origin, grid.voxel, stats);
 }
 
 }  // namespace sdfkit

@@ -80,20 +80,12 @@ Mesh marching_cubes(const openvdb::FloatGrid& grid_in, const MarchingCubesSettin
     builder.add_cell(cell.i, cell.j, cell.k, s, 0);
   }
   const openvdb::math::Transform& xf = grid->transform();
-  long collapsed = 0;
-  Mesh mesh = builder.finish(
+  return builder.finish(
       [&](const Vec3& p) -> Vec3 {
         const openvdb::Vec3d w = xf.indexToWorld(openvdb::Vec3d(p.x(), p.y(), p.z()));
         return Vec3(w.x(), w.y(), w.z());
       },
-      &collapsed);
-  if (stats) {
-    stats->cells_with_surface = builder.stats().cells_with_surface;
-    stats->collapsed_triangles = collapsed;
-    stats->snapped_vertices = builder.stats().snapped_vertices;
-    stats->centre_vertices = builder.stats().centre_vertices;
-  }
-  return mesh;
+      stats);
 }
 
 openvdb::FloatGrid::Ptr dense_to_band(const DenseGrid& grid, double half_width_voxels, double iso) {

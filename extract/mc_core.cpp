@@ -379,11 +379,11 @@ void McBuilder::add_cell(int i, int j, int k, const double s_in[kCorners], uint3
   }
 }
 
-Mesh McBuilder::finish(const Vec3& origin, double voxel, long* collapsed) const {
-  return finish([&](const Vec3& p) -> Vec3 { return origin + voxel * p; }, collapsed);
+Mesh McBuilder::finish(const Vec3& origin, double voxel, MarchingCubesStats* stats) const {
+  return finish([&](const Vec3& p) -> Vec3 { return origin + voxel * p; }, stats);
 }
 
-Mesh McBuilder::finish(const std::function<Vec3(const Vec3&)>& index_to_world, long* collapsed_out) const {
+Mesh McBuilder::finish(const std::function<Vec3(const Vec3&)>& index_to_world, MarchingCubesStats* stats) const {
   const size_t nv = vertices_.size();
   std::vector<int32_t> rep(nv);
   for (size_t v = 0; v < nv; ++v) rep[v] = static_cast<int32_t>(v);
@@ -515,7 +515,12 @@ Mesh McBuilder::finish(const std::function<Vec3(const Vec3&)>& index_to_world, l
   Eigen::Index row = 0;
   for (size_t f = 0; f < faces.size(); ++f)
     if (!drop[f]) m.F.row(row++) << remap[faces[f][0]], remap[faces[f][1]], remap[faces[f][2]];
-  if (collapsed_out) *collapsed_out = collapsed;
+  if (stats) {
+    stats->cells_with_surface = stats_.cells_with_surface;
+    stats->collapsed_triangles = collapsed;
+    stats->snapped_vertices = stats_.snapped_vertices;
+    stats->centre_vertices = stats_.centre_vertices;
+  }
   return m;
 }
 

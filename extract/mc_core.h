@@ -19,6 +19,7 @@
 #pragma once
 
 #include "core/types.h"
+#include "extract/marching_cubes.h"
 
 #include <array>
 #include <cstdint>
@@ -65,10 +66,11 @@ class McBuilder {
   /// True when the corners straddle the iso value (cheap pre-test; add_cell does nothing otherwise).
   static bool has_crossing(const double s[kCorners], uint32_t pad = 0);
   /// The mesh with vertices mapped from index space (i + t, j, k) to world by `origin + voxel * index`.
-  /// `collapsed` receives the number of triangles dropped because merging snapped vertices collapsed them.
-  Mesh finish(const Vec3& origin, double voxel, long* collapsed = nullptr) const;
+  /// `stats`, when given, receives the build's counts and the number of triangles dropped because merging
+  /// snapped vertices collapsed them.
+  Mesh finish(const Vec3& origin, double voxel, MarchingCubesStats* stats = nullptr) const;
   /// The mesh with an arbitrary index -> world map.
-  Mesh finish(const std::function<Vec3(const Vec3&)>& index_to_world, long* collapsed = nullptr) const;
+  Mesh finish(const std::function<Vec3(const Vec3&)>& index_to_world, MarchingCubesStats* stats = nullptr) const;
   [[nodiscard]] const BuildStats& stats() const { return stats_; }
 
  private:

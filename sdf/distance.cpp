@@ -149,7 +149,8 @@ ClosestPoint MeshDistance::closest(const Vec3& p, double upper_bound, int32_t hi
         const SlotBound& sb = slot_bound_[static_cast<size_t>(s)];
         const double plane = sb.plane[0] * px + sb.plane[1] * py + sb.plane[2] * pz - sb.plane[3];  // a lower bound
         if (plane * plane > best2) continue;  // cannot be closer (ties still compared below)
-        const double bx = gap(sb.lo[0], sb.hi[0], px), by = gap(sb.lo[1], sb.hi[1], py), bz = gap(sb.lo[2], sb.hi[2], pz);
+        const double bx = gap(sb.lo[0], sb.hi[0], px), by = gap(sb.lo[1], sb.hi[1], py),
+                     bz = gap(sb.lo[2], sb.hi[2], pz);
         if (bx * bx + by * by + bz * bz > best2) continue;
         const auto& t = bvh_.corners[static_cast<size_t>(s)];
         int region = 0;
