@@ -2,6 +2,8 @@
 
 #include "core/error.h"
 
+#include <algorithm>
+
 namespace sdfkit {
 
 PoseErrors pose_errors(const Points& X, const Camera& predicted, const Camera& truth) {
@@ -25,6 +27,24 @@ PoseErrors pose_errors(const Points& X, const Camera& predicted, const Camera& t
   e.d3d = sum3 / static_cast<double>(X.rows());
   e.d2d = e.points_2d > 0 ? sum2 / static_cast<double>(e.points_2d) : 0.0;
   return e;
+}
+
+PoseErrors pose_errors_modulo(const Points& X, const Camera& predicted, const Camera& truth,
+                              const std::vector<Mat3>& symmetries) {
+  PoseErrors best = pose_errors(X, predicted, truth);
+  for (const Mat3& g : symmetries) {
+    require(g.allFinite() && (g.transpose() * g - Mat3::Identity()).norm() < 1e-6 && g.determinant() > 0,
+            "pose_errors_modulo: a symmetry must be a rotation");
+    Camera twin = truth;
+    twin.R = truth.R * g;
+    const PoseErrors e = pose_errors(X, predicted, twin);
+    best.d3d = std::min(best.d3d, e.d3d);
+    if (e.d2d < best.d2d) {
+      best.d2d = e.d2d;
+      best.points_2d = e.points_2d;
+    }
+  }
+  return best;
 }
 
 double pose_d3d(const Points& X, const Camera& predicted, const Camera& truth) {

@@ -5,6 +5,8 @@
 #include "camera/camera.h"
 #include "core/types.h"
 
+#include <vector>
+
 namespace sdfkit {
 
 struct PoseErrors {
@@ -17,6 +19,13 @@ struct PoseErrors {
 /// projects with its own K. Throws InvalidInput for no points or non-finite coordinates; d2D is 0 with
 /// points_2d = 0 when no point is in front of both cameras.
 PoseErrors pose_errors(const Points& X, const Camera& predicted, const Camera& truth);
+
+/// The errors modulo the shape's own symmetries: each of d3D and d2D is the smallest over the true camera and the
+/// true camera composed with each symmetry g (R_t g, t_t), which sees a shape with gX = X exactly as the true
+/// camera does, so that an image cannot tell them apart. `symmetries` are object-frame rotations (e.g. from
+/// sdf/symmetry.h); empty gives pose_errors. points_2d is that of the d2D minimum.
+PoseErrors pose_errors_modulo(const Points& X, const Camera& predicted, const Camera& truth,
+                              const std::vector<Mat3>& symmetries);
 
 /// The two numbers alone.
 double pose_d3d(const Points& X, const Camera& predicted, const Camera& truth);

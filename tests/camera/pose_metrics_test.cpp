@@ -60,3 +60,34 @@ TEST_CASE("pose metrics: errors") {
   bad(1, 1) = NAN;
   CHECK_THROWS_AS(pose_errors(bad, look_at(0, 0, 2), look_at(0, 0, 2)), InvalidInput);
 }
+
+TEST_CASE("pose metrics modulo symmetries: the turned twin of the true camera scores zero only when it is a symmetry") {
+  const Points X = random_points(2048, 7);
+  const Camera truth = look_at(40, 27, 2.6);
+  Mat3 half, quarter;
+  half << -1, 0, 0, 0, 1, 0, 0, 0, -1;
+  quarter << 0, 0, 1, 0, 1, 0, -1, 0, 0;
+  Camera twin = truth;
+  twin.R = truth.R * half;
+  const PoseErrors plain = pose_errors(X, twin, truth);
+  CHECK(plain.d2d > 10.0);
+  CHECK(plain.d3d > 0.5);
+  // The half turn is declared a symmetry: the twin is as right as the true camera.
+  const PoseErrors mod = pose_errors_modulo(X, twin, truth, {half});
+  CHECK(mod.d2d < 1e-9);
+  CHECK(mod.d3d < 1e-12);
+  CHECK(mod.points_2d == 2048);
+  // Only the quarter turn: the twin stays wrong, and no symmetry list can make an error larger.
+  const PoseErrors q = pose_errors_modulo(X, twin, truth, {quarter});
+  CHECK(q.d2d > 5.0);
+  CHECK(q.d2d <= plain.d2d);
+  CHECK(q.d3d <= plain.d3d);
+  // No symmetries: exactly pose_errors.
+  const PoseErrors none = pose_errors_modulo(X, twin, truth, {});
+  CHECK(none.d2d == plain.d2d);
+  CHECK(none.d3d == plain.d3d);
+  // A look-at camera half an orbit away is the twin (R' = R rot_y(180), same t).
+  const Camera opposite = look_at(220, 27, 2.6);
+  CHECK(pose_errors_modulo(X, opposite, truth, {half}).d2d < 1e-6);
+  CHECK_THROWS_AS(pose_errors_modulo(X, twin, truth, {Mat3(2.0 * Mat3::Identity())}), InvalidInput);
+}
