@@ -1,8 +1,12 @@
-// `sdfkit eval-pose --model M --data DIR [--split test]`: d3D and d2D (DISN Table 3) of a pose model on a split.
+// `sdfkit eval-pose --model M --data DIR [--split test] [--symmetry]`: d3D and d2D (DISN Table 3) of a pose model
+// on a split, optionally also modulo each shape's rotational symmetries about its vertical axis.
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/mesh_io.h"
 #include "nets/pose_train.h"
+#include "sdf/prepare.h"
+#include "sdf/symmetry.h"
 
 #include <chrono>
 #include <cstdio>
@@ -15,7 +19,8 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
   struct Opts {
     std::string model, data, split = "test";
     PoseEvalSettings e;
-    bool json = false;
+    bool json = false, symmetry = false;
+    double symmetry_tol = 0.01;
   };
   auto o = std::make_shared<Opts>();
   app.add_option("--model", o->model, "pose model written by `sdfkit train pose`")->required();
@@ -28,6 +33,14 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       ->check(CLI::PositiveNumber);
   app.add_option("--views", o->e.views, "first N views of each shape (-1 = all)")->capture_default_str();
   app.add_option("--seed", o->e.seed, "seed of the point draw")->capture_default_str();
+  app.add_flag("--symmetry", o->symmetry,
+               "also score modulo each shape's symmetries: the quarter and half turns about the vertical axis that "
+               "map its gt.obj onto itself (an image cannot tell those poses apart); adds d3D-sym and d2D-sym");
+  app.add_option("--symmetry-tol", o->symmetry_tol,
+                 "a turn is a symmetry when every vertex and face centre of gt.obj lands within this distance "
+                 "(object units) of gt.obj")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_flag("--json", o->json, "print JSON (overall + per category) instead of text");
   return [o] {
     const auto t0 = std::chrono::steady_clock::now();
@@ -36,6 +49,19 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     ds.root = o->data;
     ds.split = o->split;
     const Dataset data(ds);
+    Json symmetries = Json::object();  // shape id -> the turns (degrees) found to be symmetries
+    if (o->symmetry)
+      o->e.symmetries = [&](const ShapeEntry& shape) {
+        std::vector<Mat3> group;
+        Json degrees = Json::array();
+        for (const RotationSymmetry& r : vertical_symmetries(read_mesh(ShapeFiles(shape.dir).gt), o->symmetry_tol))
+          if (r.symmetric) {
+            group.push_back(r.R);
+            degrees.push_back(r.degrees);
+          }
+        symmetries[shape.id] = degrees;
+        return group;
+      };
     std::map<std::string, PoseScores> per;
     ProgressBar bar("eval-pose", 1);
     const PoseScores all = evaluate_pose(*net, data, o->e, &per, [&](long done, long total) {
@@ -45,18 +71,41 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     bar.finish();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o->json) {
+      auto scores = [&](const PoseScores& v) {
+        Json j = {{"d3d", v.d3d}, {"d2d", v.d2d}, {"loss", v.loss}, {"items", v.items}};
+        if (o->symmetry) {
+          j["d3d_sym"] = v.d3d_sym;
+          j["d2d_sym"] = v.d2d_sym;
+        }
+        return j;
+      };
       Json cats = Json::object();
-      for (const auto& [k, v] : per) cats[k] = {{"d3d", v.d3d}, {"d2d", v.d2d}, {"loss", v.loss}, {"items", v.items}};
-      std::cout << Json{{"model", o->model},     {"data", o->data},   {"split", o->split},
-                        {"d3d", all.d3d},        {"d2d", all.d2d},    {"loss", all.loss},
-                        {"items", all.items},    {"shapes", data.size()}, {"points", o->e.points},
-                        {"seconds", seconds},    {"per_category", cats}}
-                       .dump(2)
-                << '\n';
+      for (const auto& [k, v] : per) cats[k] = scores(v);
+      Json j = scores(all);
+      j.update({{"model", o->model}, {"data", o->data}, {"split", o->split}, {"shapes", data.size()},
+                {"points", o->e.points}, {"seconds", seconds}, {"per_category", cats}});
+      if (o->symmetry) {
+        j["symmetry_tol"] = o->symmetry_tol;
+        j["symmetries"] = symmetries;
+      }
+      std::cout << j.dump(2) << '\n';
     } else {
-      std::printf("%-14s %8s %10s %10s\n", "category", "items", "d3D", "d2D(px)");
-      for (const auto& [k, v] : per) std::printf("%-14s %8ld %10.4f %10.3f\n", k.c_str(), v.items, v.d3d, v.d2d);
-      std::printf("%-14s %8ld %10.4f %10.3f\n", "mean", all.items, all.d3d, all.d2d);
+      auto row = [&](const std::string& name, const PoseScores& v) {
+        std::printf("%-14s %8ld %10.4f %10.3f", name.c_str(), v.items, v.d3d, v.d2d);
+        if (o->symmetry) std::printf(" %10.4f %10.3f", v.d3d_sym, v.d2d_sym);
+        std::printf("\n");
+      };
+      std::printf("%-14s %8s %10s %10s", "category", "items", "d3D", "d2D(px)");
+      if (o->symmetry) std::printf(" %10s %10s", "d3D-sym", "d2D-sym");
+      std::printf("\n");
+      for (const auto& [k, v] : per) row(k, v);
+      row("mean", all);
+      if (o->symmetry) {
+        long symmetric = 0;
+        for (const auto& [id, d] : symmetries.items()) symmetric += d.empty() ? 0 : 1;
+        std::printf("%ld of %zu shapes have a quarter or half turn symmetry (tolerance %g)\n", symmetric,
+                    data.size(), o->symmetry_tol);
+      }
     }
     return int(kOk);
   };

@@ -67,8 +67,9 @@ ValSet make_val_set(const Dataset& data, int items, int points, uint64_t seed) {
 
 PoseScores score_batch(PoseNet& net, const MatrixXfR& images, const std::vector<PointsF>& points,
                        const std::vector<Camera>& truth, std::vector<PoseErrors>* each = nullptr,
-                       std::vector<double>* losses = nullptr) {
+                       std::vector<double>* losses = nullptr, std::vector<Camera>* predicted = nullptr) {
   const PosePrediction p = net.predict(images);
+  if (predicted) *predicted = p.cameras;
   PoseScores sc;
   for (size_t b = 0; b < p.cameras.size(); ++b) {
     const PoseErrors e = pose_errors(to_double(points[b]), p.cameras[b], truth[b]);
@@ -292,9 +293,11 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
   }
   require(!items.empty(), data.root() + ": no views to evaluate");
   std::vector<PointsF> shape_points(data.size());
+  std::vector<std::vector<Mat3>> shape_symmetries(data.size());
   for (size_t s = 0; s < data.size(); ++s) {
     Eigen::VectorXf d;
     draw_samples(data.samples(s), es.points, Rng::mix(es.seed + 1000003ULL * s), shape_points[s], d);
+    if (es.symmetries) shape_symmetries[s] = es.symmetries(data.shape(s));
   }
   PoseScores total;
   const int S = net.settings().image_size;
@@ -311,19 +314,22 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
     }
     std::vector<PoseErrors> each;
     std::vector<double> losses;
-    const PoseScores sc = score_batch(net, images, pts, cams, &each, &losses);
-    total.loss += sc.loss;
-    total.d3d += sc.d3d;
-    total.d2d += sc.d2d;
-    total.items += sc.items;
-    if (per_category)
-      for (size_t k = 0; k < m; ++k) {
-        PoseScores& c = (*per_category)[data.shape(items[b0 + k].first).category];
-        c.d3d += each[k].d3d;
-        c.d2d += each[k].d2d;
-        c.loss += losses[k];
-        ++c.items;
+    std::vector<Camera> predicted;
+    score_batch(net, images, pts, cams, &each, &losses, &predicted);
+    for (size_t k = 0; k < m; ++k) {
+      const int s = items[b0 + k].first;
+      const std::vector<Mat3>& g = shape_symmetries[static_cast<size_t>(s)];
+      const PoseErrors sym = g.empty() ? each[k] : pose_errors_modulo(to_double(pts[k]), predicted[k], cams[k], g);
+      for (PoseScores* p : {&total, per_category ? &(*per_category)[data.shape(s).category] : nullptr}) {
+        if (!p) continue;
+        p->loss += losses[k];
+        p->d3d += each[k].d3d;
+        p->d2d += each[k].d2d;
+        p->d3d_sym += sym.d3d;
+        p->d2d_sym += sym.d2d;
+        ++p->items;
       }
+    }
     if (progress) progress(static_cast<long>(b0 + m), static_cast<long>(items.size()));
   }
   auto finish = [](PoseScores& p) {
@@ -331,6 +337,8 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
     p.loss /= static_cast<double>(p.items);
     p.d3d /= static_cast<double>(p.items);
     p.d2d /= static_cast<double>(p.items);
+    p.d3d_sym /= static_cast<double>(p.items);
+    p.d2d_sym /= static_cast<double>(p.items);
   };
   finish(total);
   if (per_category)

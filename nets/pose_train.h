@@ -49,6 +49,9 @@ struct PoseScores {
   double d3d = 0;   ///< mean d3D (object-frame units)
   double d2d = 0;   ///< mean d2D (pixels)
   long items = 0;
+  /// Modulo each shape's symmetries (pose_errors_modulo): only from evaluate_pose with a symmetry source, else
+  /// equal to d3d / d2d.
+  double d3d_sym = 0, d2d_sym = 0;
 };
 
 using PoseTrainEvent = TrainEvent<PoseScores>;
@@ -77,6 +80,9 @@ struct PoseEvalSettings {
   int views = -1;  ///< views per shape (first N), -1 = all
   int batch = 16;
   uint64_t seed = 1;
+  /// The object-frame rotations that map a shape onto itself (e.g. sdf/symmetry.h from its gt mesh), called once
+  /// per shape; when set, d3d_sym / d2d_sym score each estimate against the closest symmetric twin of the truth.
+  std::function<std::vector<Mat3>(const ShapeEntry&)> symmetries;
 };
 PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettings& settings,
                          std::map<std::string, PoseScores>* per_category = nullptr,
