@@ -36,11 +36,4 @@ std::vector<RotationSymmetry> vertical_symmetries(const Mesh& mesh, double tol) 
   return out;
 }
 
-std::vector<Mat3> vertical_symmetry_group(const Mesh& mesh, double tol) {
-  std::vector<Mat3> g;
-  for (const RotationSymmetry& s : vertical_symmetries(mesh, tol))
-    if (s.symmetric) g.push_back(s.R);
-  return g;
-}
-
 }  // namespace sdfkit

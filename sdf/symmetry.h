@@ -20,7 +20,4 @@ struct RotationSymmetry {
 /// Deterministic. Throws InvalidInput for an empty mesh or a non-positive or non-finite tolerance.
 std::vector<RotationSymmetry> vertical_symmetries(const Mesh& mesh, double tol);
 
-/// The rotations of vertical_symmetries that are symmetries.
-std::vector<Mat3> vertical_symmetry_group(const Mesh& mesh, double tol);
-
 }  // namespace sdfkit
