@@ -67,12 +67,12 @@ SdfTrainResult train_sdf(const SdfTrainSettings& settings,
 /// Validation metrics of a network on `data` items (shape i, view 0), val_points samples each (seeded).
 SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, int points, uint64_t seed);
 
-/// Save a model (network configuration + parameters; optional training state) / load one for inference.
 /// The camera jitter of SdfTrainSettings::camera_jitter_deg: turns every camera about the object's vertical axis
 /// (R' = R rot_y(a), the look-at orbit's azimuth change; t kept) by a Gaussian angle a of standard deviation
 /// `sigma_deg`, drawn in order from a generator derived from (seed, step).
 void jitter_cameras(std::vector<Camera>& cameras, double sigma_deg, uint64_t seed, long step);
 
+/// Save a model (network configuration + parameters; optional training state) / load one for inference.
 /// load_sdf_model throws IoError naming the file when it is missing, corrupt, or not an SDF model.
 void save_sdf_model(const std::string& path, const SdfNet& net, const Json& training = Json::object());
 std::unique_ptr<SdfNet> load_sdf_model(const std::string& path, Json* training = nullptr);

@@ -73,6 +73,11 @@ SdfTrainSettings tiny_run(const fs::path& root, SdfVariant v) {
   return st;
 }
 
+/// The parameter block of checkpoint ROOT/NAME.
+std::vector<float> params(const fs::path& root, const std::string& name) {
+  return load_checkpoint((root / name).string()).block("params");
+}
+
 /// Trains `st` for 6 steps into ROOT/NAME_straight.ckpt, and for 3 steps then resumed to 6 into
 /// ROOT/NAME_split.ckpt; returns the resumed run's result.
 SdfTrainResult straight_and_split(SdfTrainSettings st, const fs::path& root, const std::string& name) {
@@ -141,17 +146,16 @@ TEST_CASE("resumed training continues bit for bit") {
   const fs::path root = make_torus_dataset("sdf_train_resume");
   // Constant rate (tiny_run): the schedule must not depend on --steps, which differs between the runs.
   SdfTrainSettings st = tiny_run(root, SdfVariant::OneStream);
-  const auto params = [&](const std::string& name) { return load_checkpoint((root / name).string()).block("params"); };
   const SdfTrainResult r = straight_and_split(st, root, "const");
   CHECK(r.start_step == 3);
-  CHECK(params("const_straight.ckpt") == params("const_split.ckpt"));
+  CHECK(params(root, "const_straight.ckpt") == params(root, "const_split.ckpt"));
   // A decaying rate with its horizon fixed by lr_steps: a 3-step run resumed to 6 steps equals 6 straight steps
   // (without lr_steps the 3-step run would decay over 3 steps, and the runs would differ).
   st.lr_min = st.lr / 10;
   st.lr_steps = 6;
   straight_and_split(st, root, "cos");
-  CHECK(params("cos_straight.ckpt") == params("cos_split.ckpt"));
-  CHECK(params("const_straight.ckpt") != params("cos_straight.ckpt"));
+  CHECK(params(root, "cos_straight.ckpt") == params(root, "cos_split.ckpt"));
+  CHECK(params(root, "const_straight.ckpt") != params(root, "cos_straight.ckpt"));
   // A different configuration refuses to resume.
   st.out = (root / "cos_split.ckpt").string();
   st.steps = 6;
@@ -199,7 +203,6 @@ TEST_CASE("--init starts from a model's weights, and jittered training is seeded
   st.out = (root / "a.ckpt").string();
   st.steps = 3;
   train_sdf(st);
-  const auto params = [&](const std::string& name) { return load_checkpoint((root / name).string()).block("params"); };
   // A step at a vanishing rate from --init leaves the weights where the model had them.
   SdfTrainSettings ft = st;
   ft.init = (root / "a.ckpt").string();
@@ -208,11 +211,11 @@ TEST_CASE("--init starts from a model's weights, and jittered training is seeded
   ft.steps = 1;
   ft.out = (root / "ft.ckpt").string();
   train_sdf(ft);
-  CHECK(params("ft.ckpt") == params("a.ckpt"));
+  CHECK(params(root, "ft.ckpt") == params(root, "a.ckpt"));
   ft.init = "";
   ft.out = (root / "scratch.ckpt").string();
   train_sdf(ft);
-  CHECK(params("scratch.ckpt") != params("a.ckpt"));
+  CHECK(params(root, "scratch.ckpt") != params(root, "a.ckpt"));
   // A model of another configuration is refused, naming the file.
   ft.init = (root / "a.ckpt").string();
   ft.net.decoder = {16, 8};
@@ -227,12 +230,12 @@ TEST_CASE("--init starts from a model's weights, and jittered training is seeded
   // Jitter changes the training; a jittered run split by a resume equals the straight one.
   st.camera_jitter_deg = 20;
   straight_and_split(st, root, "j");
-  CHECK(params("j_straight.ckpt") == params("j_split.ckpt"));
+  CHECK(params(root, "j_straight.ckpt") == params(root, "j_split.ckpt"));
   st.camera_jitter_deg = 0;
   st.steps = 6;
   st.out = (root / "plain.ckpt").string();
   train_sdf(st);
-  CHECK(params("plain.ckpt") != params("j_straight.ckpt"));
+  CHECK(params(root, "plain.ckpt") != params(root, "j_straight.ckpt"));
   st.camera_jitter_deg = -1;
   CHECK_THROWS_AS(train_sdf(st), InvalidInput);
   fs::remove_all(root);
