@@ -2,6 +2,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "nets/comm.h"
 #include "nets/pose_train.h"
 
 #include <cstdio>
@@ -77,8 +78,13 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   return [o] {
     PoseTrainSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
-    ProgressBar bar("train pose", s.steps);
+    // In an MPI job (mpirun/srun, nets/comm.h) every rank trains; rank 0 alone reports and writes files.
+    const bool root = Comm::world().is_root();
+    if (root && Comm::world().size() > 1)
+      std::fprintf(stderr, "train pose: data-parallel over %s\n", Comm::world().describe().c_str());
+    ProgressBar bar("train pose", root ? s.steps : 0);
     const PoseTrainResult r = train_pose(s, [&](const PoseTrainEvent& e) {
+      if (!root) return;
       bar.update(e.step);
       if (e.validated) {
         char line[256];
@@ -88,6 +94,7 @@ std::function<int()> setup_train_pose(CLI::App& app) {
       }
     });
     bar.finish();
+    if (!root) return int(kOk);
     const Json j = {{"model", r.model},       {"csv", r.csv},
                     {"plot", r.plot},         {"steps", r.steps},
                     {"start_step", r.start_step}, {"seconds", r.seconds},

@@ -2,6 +2,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "nets/comm.h"
 #include "nets/sdf_train.h"
 
 #include <cstdio>
@@ -114,8 +115,13 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
     s.net.point_mlp = parse_widths(o->point_mlp, "--point-mlp");
     s.net.decoder = parse_widths(o->decoder, "--decoder");
     s.time_limit_seconds = o->minutes * 60.0;
-    ProgressBar bar("train sdf", s.steps);
+    // In an MPI job (mpirun/srun, nets/comm.h) every rank trains; rank 0 alone reports and writes files.
+    const bool root = Comm::world().is_root();
+    if (root && Comm::world().size() > 1)
+      std::fprintf(stderr, "train sdf: data-parallel over %s\n", Comm::world().describe().c_str());
+    ProgressBar bar("train sdf", root ? s.steps : 0);
     const SdfTrainResult r = train_sdf(s, [&](const SdfTrainEvent& e) {
+      if (!root) return;
       bar.update(e.step);
       if (e.validated) {
         char line[256];
@@ -126,6 +132,7 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
       }
     });
     bar.finish();
+    if (!root) return int(kOk);
     if (o->json) {
       std::cout << Json{{"model", r.model},
                         {"csv", r.csv},

@@ -1,6 +1,7 @@
 // `sdfkit`: parse the sub-command, run it, turn every error into one line and the contract's exit code.
 #include "apps/command.h"
 #include "core/error.h"
+#include "nets/comm.h"
 #include "nets/denormals.h"
 
 #include <tbb/global_control.h>
@@ -137,9 +138,10 @@ int main(int argc, char** argv) {
     return run ? run() : kUserError;
   } catch (const sdfkit::Error& e) {
     std::cerr << "sdfkit: error: " << e.what() << '\n';
-    return kUserError;
   } catch (const std::exception& e) {
     std::cerr << "sdfkit: error: " << e.what() << '\n';
-    return kUserError;
   }
+  // In an MPI job the other ranks may be waiting for this one in a collective: end the job.
+  sdfkit::Comm::abort_if_distributed(kUserError);
+  return kUserError;
 }

@@ -232,9 +232,10 @@ BatchSampler::BatchSampler(const Dataset& data, const BatchSettings& settings) :
   require(!pairs_.empty(), "empty dataset");
 }
 
-SdfBatch BatchSampler::batch(long step) const {
+SdfBatch BatchSampler::batch(long step, int begin, int end) const {
   require(step >= 0, "batch step must be non-negative");
-  const int B = settings_.batch_size, N = settings_.points_per_shape;
+  require(0 <= begin && begin <= end && end <= settings_.batch_size, "batch item range out of bounds");
+  const int B = end - begin, N = settings_.points_per_shape;
   SdfBatch out;
   out.points_per_item = N;
   out.shape_index.resize(B);
@@ -245,7 +246,7 @@ SdfBatch BatchSampler::batch(long step) const {
   if (settings_.load_images) out.images.resize(B, 3 * kNetImageSize * kNetImageSize);
   // Resolve the items of this batch (one permutation per epoch touched).
   const long n = items_per_epoch();
-  const long first = step * B;
+  const long first = step * settings_.batch_size + begin;
   std::vector<int> perm;
   long perm_epoch = -1;
   for (int b = 0; b < B; ++b) {

@@ -115,7 +115,10 @@ class BatchSampler {
  public:
   BatchSampler(const Dataset& data, const BatchSettings& settings);
   /// Batch number `step` (0-based). Items are loaded in parallel (TBB); result is identical for any threads.
-  [[nodiscard]] SdfBatch batch(long step) const;
+  [[nodiscard]] SdfBatch batch(long step) const { return batch(step, 0, settings_.batch_size); }
+  /// Items [begin, end) of batch `step` only (a rank's share in data-parallel training): the same values as the
+  /// corresponding items of batch(step).
+  [[nodiscard]] SdfBatch batch(long step, int begin, int end) const;
   /// Number of (shape, view) pairs = items per epoch.
   [[nodiscard]] long items_per_epoch() const { return static_cast<long>(pairs_.size()); }
   [[nodiscard]] const BatchSettings& settings() const { return settings_; }

@@ -39,25 +39,42 @@ void xavier_uniform(T* w, size_t n, int64_t fan_in, int64_t fan_out, Rng& rng) {
 }
 
 template <typename T>
-void ParamStore<T>::allocate(bool with_grads) {
+void ParamStore<T>::compute_offsets() {
   offsets_.clear();
-  size_t total = 0;
+  total_ = 0;
   for (auto* l : layers_) {
-    offsets_.push_back(total);
-    total += l->n_params();
+    offsets_.push_back(total_);
+    total_ += l->n_params();
   }
+}
+
+template <typename T>
+void ParamStore<T>::share_values(ParamStore& master) {
+  compute_offsets();
+  require(master.values.size() == total_ && master.layers_.size() == layers_.size(),
+          "ParamStore::share_values: the replica's layout differs from the master's");
+  AlignedVector<T>().swap(values);
+  grads.assign(total_, T(0));
+  for (size_t i = 0; i < layers_.size(); ++i) layers_[i]->bind(master.values.data() + offsets_[i], grads.data() + offsets_[i]);
+}
+
+template <typename T>
+void ParamStore<T>::allocate(bool with_grads) {
+  compute_offsets();
+  const size_t total = total_;
   if (values.size() != total) values.assign(total, T(0));
   if (with_grads)
     grads.assign(total, T(0));
   else
-    std::vector<T>().swap(grads);
+    AlignedVector<T>().swap(grads);
   for (size_t i = 0; i < layers_.size(); ++i)
     layers_[i]->bind(values.data() + offsets_[i], with_grads ? grads.data() + offsets_[i] : nullptr);
 }
 
 template <typename T>
 void ParamStore<T>::init(uint64_t seed) {
-  require(offsets_.size() == layers_.size(), "ParamStore::init: call allocate() first");
+  require(offsets_.size() == layers_.size() && values.size() == total_,
+          "ParamStore::init: call allocate() first (a replica made by share_values has no values of its own)");
   for (size_t i = 0; i < layers_.size(); ++i) {
     Rng rng = Rng::derived(seed, i);
     layers_[i]->init_params(values.data() + offsets_[i], rng);

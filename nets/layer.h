@@ -43,6 +43,13 @@ class Layer {
   /// Shape of the output for an input of shape `in` (InvalidInput when the input does not fit).
   [[nodiscard]] virtual Shape output_shape(const Shape& in) const = 0;
   virtual void forward(const TensorT<T>& x, TensorT<T>& y) const = 0;
+  /// Floating-point operations of forward() on an input of shape `in`, counting a multiply-add as 2 (the
+  /// multiply-adds of convolutions and dense layers; element-wise work is not counted). A backward pass costs
+  /// this twice when it computes dx, once when it does not. For benchmarks (`sdfkit bench train`).
+  [[nodiscard]] virtual double forward_flops(const Shape& in) const {
+    (void)in;
+    return 0;
+  }
   /// Accumulate parameter gradients (+=) and write dx = dL/dx when dx != nullptr. Requires bound gradients
   /// when the layer has parameters.
   virtual void backward(const TensorT<T>& x, const TensorT<T>& y, const TensorT<T>& dy, TensorT<T>* dx) const = 0;
@@ -74,8 +81,12 @@ class ParamStore {
   /// Initialise every layer's parameters: layer i draws from Rng::derived(seed, i).
   void init(uint64_t seed);
   void zero_grad();
+  /// Make this store a replica of `master` for data-parallel training: every layer reads master's values (forward
+  /// and backward never write parameters) and writes this store's own gradient buffer. `values` stays empty; the
+  /// master must have the same layout and must not reallocate while the replica is in use.
+  void share_values(ParamStore& master);
 
-  [[nodiscard]] size_t size() const { return values.size(); }
+  [[nodiscard]] size_t size() const { return total_; }
   [[nodiscard]] bool has_grads() const { return !grads.empty(); }
   [[nodiscard]] const std::vector<Layer<T>*>& layers() const { return layers_; }
   /// Offset of layer i's slice in the buffer.
@@ -83,12 +94,14 @@ class ParamStore {
   /// Architecture as a JSON array of the layers' hyperparams().
   [[nodiscard]] Json architecture() const;
 
-  std::vector<T> values;
-  std::vector<T> grads;
+  AlignedVector<T> values;
+  AlignedVector<T> grads;
 
  private:
+  void compute_offsets();
   std::vector<Layer<T>*> layers_;
   std::vector<size_t> offsets_;
+  size_t total_ = 0;
 };
 
 /// [begin, end) ranges cutting n items into at most max_chunks pieces of at least min_per_chunk items; depends

@@ -15,7 +15,7 @@ using ColMajor = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>;
 
 // Sum per-chunk partial gradients into g in chunk order (deterministic for any thread count).
 template <typename T>
-void add_partials(const std::vector<std::vector<T>>& partials, T* g, size_t n) {
+void add_partials(const std::vector<AlignedVector<T>>& partials, T* g, size_t n) {
   for (const auto& p : partials)
     for (size_t i = 0; i < n; ++i) g[i] += p[i];
 }
@@ -109,6 +109,13 @@ Shape Conv2d<T>::output_shape(const Shape& in) const {
 }
 
 template <typename T>
+double Conv2d<T>::forward_flops(const Shape& in) const {
+  const Shape os = output_shape(in);
+  return 2.0 * static_cast<double>(os[0]) * static_cast<double>(os[1]) * static_cast<double>(os[2] * os[3]) *
+         s_.in_channels * s_.kernel * s_.kernel;
+}
+
+template <typename T>
 void Conv2d<T>::forward(const TensorT<T>& x, TensorT<T>& y) const {
   this->require_bound(false);
   const Shape os = output_shape(x.shape);
@@ -119,7 +126,7 @@ void Conv2d<T>::forward(const TensorT<T>& x, TensorT<T>& y) const {
   const bool direct = (k == 1 && st == 1 && p == 0);
   ConstMatMapT<T> Wm(this->w_, O, CK);
   parallel_items(x.batch(), [&](int64_t n) {
-    thread_local std::vector<T> col;
+    thread_local AlignedVector<T> col;
     const T* colp = x.item(n);
     if (!direct) {
       col.resize(static_cast<size_t>(CK * HWo));
@@ -149,12 +156,12 @@ void Conv2d<T>::backward(const TensorT<T>& x, const TensorT<T>& y, const TensorT
   ConstMatMapT<T> Wm(this->w_, O, CK);
   const auto chunks = fixed_chunks(x.batch(), 1, kMaxReduceChunks);
   const size_t np = n_params();
-  std::vector<std::vector<T>> partial(chunks.size());
+  std::vector<AlignedVector<T>> partial(chunks.size());
   parallel_chunks(chunks, [&](size_t c, int64_t begin, int64_t end) {
-    std::vector<T>& g = partial[c];
+    AlignedVector<T>& g = partial[c];
     g.assign(np, T(0));
     MatMapT<T> gW(g.data(), O, CK);
-    std::vector<T> col, dcol;
+    AlignedVector<T> col, dcol;
     for (int64_t n = begin; n < end; ++n) {
       const T* colp = x.item(n);
       if (!direct) {
@@ -220,6 +227,12 @@ Shape Linear<T>::output_shape(const Shape& in) const {
 }
 
 template <typename T>
+double Linear<T>::forward_flops(const Shape& in) const {
+  (void)output_shape(in);  // checks the input
+  return 2.0 * static_cast<double>(shape_size(in) / s_.in_features) * s_.in_features * s_.out_features;
+}
+
+template <typename T>
 void Linear<T>::forward(const TensorT<T>& x, TensorT<T>& y) const {
   this->require_bound(false);
   y.resize(output_shape(x.shape));
@@ -243,9 +256,9 @@ void Linear<T>::backward(const TensorT<T>& x, const TensorT<T>& y, const TensorT
   if (dx) dx->resize(x.shape);
   const auto chunks = fixed_chunks(R, kLinearMinRows, kMaxReduceChunks);
   const size_t np = n_params();
-  std::vector<std::vector<T>> partial(chunks.size());
+  std::vector<AlignedVector<T>> partial(chunks.size());
   parallel_chunks(chunks, [&](size_t c, int64_t r0, int64_t r1) {
-    std::vector<T>& g = partial[c];
+    AlignedVector<T>& g = partial[c];
     g.assign(np, T(0));
     ConstMatMapT<T> dY(dy.ptr() + r0 * O, r1 - r0, O);
     ConstMatMapT<T> X(x.ptr() + r0 * I, r1 - r0, I);
@@ -598,6 +611,17 @@ Shape Sequential<T>::output_shape(const Shape& in) const {
   Shape s = in;
   for (const auto& l : layers_) s = l->output_shape(s);
   return s;
+}
+
+template <typename T>
+double Sequential<T>::forward_flops(const Shape& in) const {
+  double flops = 0;
+  Shape s = in;
+  for (const auto& l : layers_) {
+    flops += l->forward_flops(s);
+    s = l->output_shape(s);
+  }
+  return flops;
 }
 
 template <typename T>

@@ -35,6 +35,7 @@ class Conv2d : public Layer<T> {
   [[nodiscard]] Shape output_shape(const Shape& in) const override;
   void forward(const TensorT<T>& x, TensorT<T>& y) const override;
   void backward(const TensorT<T>& x, const TensorT<T>& y, const TensorT<T>& dy, TensorT<T>* dx) const override;
+  [[nodiscard]] double forward_flops(const Shape& in) const override;
   [[nodiscard]] const Conv2dSettings& settings() const { return s_; }
 
  private:
@@ -63,6 +64,7 @@ class Linear : public Layer<T> {
   [[nodiscard]] Shape output_shape(const Shape& in) const override;
   void forward(const TensorT<T>& x, TensorT<T>& y) const override;
   void backward(const TensorT<T>& x, const TensorT<T>& y, const TensorT<T>& dy, TensorT<T>* dx) const override;
+  [[nodiscard]] double forward_flops(const Shape& in) const override;
   [[nodiscard]] const LinearSettings& settings() const { return s_; }
 
  private:
@@ -193,9 +195,11 @@ class Sequential : public Layer<T> {
   [[nodiscard]] Shape output_shape(const Shape& in) const override;
   void forward(const TensorT<T>& x, TensorT<T>& y) const override;
   void backward(const TensorT<T>& x, const TensorT<T>& y, const TensorT<T>& dy, TensorT<T>* dx) const override;
+  [[nodiscard]] double forward_flops(const Shape& in) const override;
 
   [[nodiscard]] size_t size() const { return layers_.size(); }
   [[nodiscard]] Layer<T>& operator[](size_t i) { return *layers_.at(i); }
+  [[nodiscard]] const Layer<T>& operator[](size_t i) const { return *layers_.at(i); }
   /// Activation after layer i of the last training forward (i = size()-1 is the output).
   [[nodiscard]] const TensorT<T>& activation(size_t i) const { return acts_.at(i); }
 

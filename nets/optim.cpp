@@ -1,6 +1,9 @@
 #include "nets/optim.h"
 
 #include "core/error.h"
+#include "nets/denormals.h"
+
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -89,35 +92,44 @@ void Optimizer::step_impl(T* w, const T* g, double lr) {
   ++t_;
   const double wd = s_.weight_decay;
   const bool coupled = wd > 0 && !s_.decoupled_weight_decay;
-  if (s_.kind == OptimizerSettings::Kind::Adam) {
-    const double b1 = s_.beta1, b2 = s_.beta2;
-    const double c1 = 1.0 - std::pow(b1, static_cast<double>(t_)), c2 = 1.0 - std::pow(b2, static_cast<double>(t_));
-    const double step = lr / c1, sc2 = 1.0 / std::sqrt(c2);
-    for (size_t i = 0; i < n_; ++i) {
-      double gi = g[i];
-      if (coupled) gi += wd * w[i];
-      const float m = static_cast<float>(b1 * m_[i] + (1.0 - b1) * gi);
-      const float v = static_cast<float>(b2 * v_[i] + (1.0 - b2) * gi * gi);
-      m_[i] = m;
-      v_[i] = v;
-      double wi = w[i];
-      if (wd > 0 && !coupled) wi -= lr * wd * wi;
-      wi -= step * m / (std::sqrt(static_cast<double>(v)) * sc2 + s_.eps);
-      w[i] = static_cast<T>(wi);
+  const bool adam = s_.kind == OptimizerSettings::Kind::Adam;
+  const double b1 = s_.beta1, b2 = s_.beta2;
+  const double c1 = 1.0 - std::pow(b1, static_cast<double>(t_)), c2 = 1.0 - std::pow(b2, static_cast<double>(t_));
+  const double step = lr / c1, sc2 = 1.0 / std::sqrt(c2);
+  const double mu = s_.momentum;
+  // Element-wise updates: each element's arithmetic is the same whichever thread runs its block, so the result does
+  // not depend on the thread count. Blocks keep the update off the training step's serial path.
+  constexpr size_t kBlock = size_t(1) << 14;
+  const size_t blocks = (n_ + kBlock - 1) / kBlock;
+  tbb::parallel_for(size_t(0), blocks, [&](size_t blk) {
+    flush_denormals_on_this_thread();
+    const size_t i0 = blk * kBlock, i1 = std::min(n_, i0 + kBlock);
+    if (adam) {
+      for (size_t i = i0; i < i1; ++i) {
+        double gi = g[i];
+        if (coupled) gi += wd * w[i];
+        const float m = static_cast<float>(b1 * m_[i] + (1.0 - b1) * gi);
+        const float v = static_cast<float>(b2 * v_[i] + (1.0 - b2) * gi * gi);
+        m_[i] = m;
+        v_[i] = v;
+        double wi = w[i];
+        if (wd > 0 && !coupled) wi -= lr * wd * wi;
+        wi -= step * m / (std::sqrt(static_cast<double>(v)) * sc2 + s_.eps);
+        w[i] = static_cast<T>(wi);
+      }
+    } else {
+      for (size_t i = i0; i < i1; ++i) {
+        double gi = g[i];
+        if (coupled) gi += wd * w[i];
+        const float b = static_cast<float>(mu * m_[i] + gi);
+        m_[i] = b;
+        const double d = s_.nesterov ? gi + mu * b : static_cast<double>(b);
+        double wi = w[i];
+        if (wd > 0 && !coupled) wi -= lr * wd * wi;
+        w[i] = static_cast<T>(wi - lr * d);
+      }
     }
-  } else {
-    const double mu = s_.momentum;
-    for (size_t i = 0; i < n_; ++i) {
-      double gi = g[i];
-      if (coupled) gi += wd * w[i];
-      const float b = static_cast<float>(mu * m_[i] + gi);
-      m_[i] = b;
-      const double d = s_.nesterov ? gi + mu * b : static_cast<double>(b);
-      double wi = w[i];
-      if (wd > 0 && !coupled) wi -= lr * wd * wi;
-      w[i] = static_cast<T>(wi - lr * d);
-    }
-  }
+  });
 }
 
 void Optimizer::step(float* w, const float* g, double lr) { step_impl(w, g, lr); }

@@ -66,6 +66,13 @@ PoseNet::PoseNet(const PoseNetSettings& settings, bool with_grads) : s_(settings
   dist_head_.training(with_grads);
 }
 
+double PoseNet::train_step_flops(int batch) const {
+  const Shape in{batch, 3, s_.image_size, s_.image_size};
+  const Shape feat = trunk_.output_shape(in);
+  const double fwd = trunk_.forward_flops(in) + rot_head_.forward_flops(feat) + dist_head_.forward_flops(feat);
+  return 3.0 * fwd - trunk_[0].forward_flops(in);  // the image gradient of the first convolution is not computed
+}
+
 Json PoseNet::architecture() const {
   return {{"model", "pose_net"}, {"settings", s_.to_json()}, {"layers", store_.architecture()}};
 }
@@ -132,7 +139,7 @@ double pose_point_loss(const Eigen::Matrix3d& R, double d, const PointsF& points
 }
 
 double PoseNet::forward_backward(const MatrixXfR& images, const std::vector<PointsF>& points,
-                                 const std::vector<Camera>& truth) {
+                                 const std::vector<Camera>& truth, double weight) {
   require(store_.has_grads(), "pose net: forward_backward needs a model built with gradients");
   const Eigen::Index B = images.rows();
   require(static_cast<Eigen::Index>(points.size()) == B && static_cast<Eigen::Index>(truth.size()) == B,
@@ -149,9 +156,9 @@ double PoseNet::forward_backward(const MatrixXfR& images, const std::vector<Poin
     Eigen::Matrix3d dR;
     double dd = 0;
     total += pose_point_loss(f.R, s_.distance_min + sig * range, points[b], truth[b], &dR, &dd);
-    const Vec6T<double> db = rot6d_backward(f, dR) / static_cast<double>(B);
+    const Vec6T<double> db = rot6d_backward(f, dR) * (weight / static_cast<double>(B));
     for (int k = 0; k < 6; ++k) drot[b * 6 + k] = static_cast<float>(db[k]);
-    ddist[b] = static_cast<float>(dd * range * sig * (1.0 - sig) / static_cast<double>(B));
+    ddist[b] = static_cast<float>(dd * range * sig * (1.0 - sig) * (weight / static_cast<double>(B)));
   }
   Tensor dfeat_r, dfeat_d;
   rot_head_.backward(feat_, rot_, drot, &dfeat_r);

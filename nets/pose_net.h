@@ -56,12 +56,20 @@ class PoseNet {
   /// images: B x (3 * S * S) channels-first rows (SdfBatch::images / Dataset::input), S = image_size.
   [[nodiscard]] PosePrediction predict(const MatrixXfR& images);
 
-  /// One training forward + backward: returns the batch's L_cam and ADDS the parameter gradients (call
-  /// params().zero_grad() first). points[b] are item b's object-frame points.
+  /// One training forward + backward: returns the batch's L_cam and ADDS the gradients of weight x L_cam to the
+  /// parameter gradients (call params().zero_grad() first). points[b] are item b's object-frame points. Data-
+  /// parallel training runs one item per replica with weight 1 / batch (nets/pose_train.cpp).
   double forward_backward(const MatrixXfR& images, const std::vector<PointsF>& points,
-                          const std::vector<Camera>& truth);
+                          const std::vector<Camera>& truth, double weight = 1.0);
+  /// Make this network a replica of `master` (same settings): it reads master's parameter values and owns its
+  /// activations and gradient buffer (ParamStore::share_values).
+  void share_parameters(PoseNet& master) { store_.share_values(master.store_); }
   /// L_cam without gradients (validation).
   double loss(const MatrixXfR& images, const std::vector<PointsF>& points, const std::vector<Camera>& truth);
+
+  /// Floating-point operations of one training step on `batch` images (Layer::forward_flops; backward = 2x
+  /// forward less the image gradient, which is not computed).
+  [[nodiscard]] double train_step_flops(int batch) const;
 
   /// Camera from the raw head outputs (6D rotation, distance logit).
   [[nodiscard]] Camera camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z) const;

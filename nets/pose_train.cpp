@@ -1,15 +1,19 @@
 #include "nets/pose_train.h"
 
 #include "nets/checkpoint.h"
+#include "nets/comm.h"
 #include "nets/denormals.h"
 #include "nets/plot.h"
 
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <future>
 #include <iomanip>
 #include <limits>
 #include <sstream>
+
+#include <tbb/parallel_for.h>
 
 namespace fs = std::filesystem;
 
@@ -84,14 +88,20 @@ PoseScores score_batch(PoseNet& net, const MatrixXfR& images, const std::vector<
   return sc;
 }
 
-PoseScores validate(PoseNet& net, const ValSet& v, int batch) {
+/// Validation scores, one item at a time on the replicas in parallel (item k on replica k mod R); the item scores
+/// are added in item order.
+PoseScores validate(const std::vector<PoseNet*>& nets, const ValSet& v) {
+  const auto n = static_cast<size_t>(v.images.rows()), R = nets.size();
+  std::vector<PoseScores> each(n);
+  tbb::parallel_for(size_t(0), R, [&](size_t r) {
+    flush_denormals_on_this_thread();
+    for (size_t k = r; k < n; k += R) {
+      const auto i = static_cast<Eigen::Index>(k);
+      each[k] = score_batch(*nets[r], v.images.middleRows(i, 1), {v.points[k]}, {v.cameras[k]});
+    }
+  });
   PoseScores total;
-  const Eigen::Index n = v.images.rows();
-  for (Eigen::Index b0 = 0; b0 < n; b0 += batch) {
-    const Eigen::Index m = std::min<Eigen::Index>(batch, n - b0);
-    const std::vector<PointsF> pts(v.points.begin() + b0, v.points.begin() + b0 + m);
-    const std::vector<Camera> cams(v.cameras.begin() + b0, v.cameras.begin() + b0 + m);
-    const PoseScores s = score_batch(net, v.images.middleRows(b0, m), pts, cams);
+  for (const PoseScores& s : each) {
     total.loss += s.loss;
     total.d3d += s.d3d;
     total.d2d += s.d2d;
@@ -228,26 +238,63 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   result.start_step = step;
 
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  // Data-parallel steps (nets/comm.h): this rank's items [i0, i1) of every batch, one replica per item (sharing
+  // net's values, owning activations and a gradient buffer), run in parallel; the step's gradient is the sum of the
+  // item gradients in item order: the same bytes for any thread count and any number of ranks.
+  const Comm& comm = Comm::world();
+  require(comm.size() <= s.batch, "train pose: more MPI ranks (" + std::to_string(comm.size()) +
+                                      ") than items per batch (" + std::to_string(s.batch) + ")");
+  const auto [i0, i1] = comm.item_range(s.batch);
+  const int local = i1 - i0;
+  std::vector<std::unique_ptr<PoseNet>> replicas;
+  std::vector<PoseNet*> replica_ptrs;
+  std::vector<const float*> item_grads;
+  for (int k = 0; k < local; ++k) {
+    replicas.push_back(std::make_unique<PoseNet>(s.net, true));
+    replicas.back()->share_parameters(net);
+    replica_ptrs.push_back(replicas.back().get());
+    item_grads.push_back(replicas.back()->params().grads.data());
+  }
+  auto load = [&sampler, &s, i0 = i0, i1 = i1](long at) {
+    SdfBatch batch = sampler.batch(at, i0, i1);
+    augment_images(batch.images, s.augment, s.seed, static_cast<uint64_t>(at) * static_cast<uint64_t>(s.batch) + i0);
+    return batch;
+  };
+  std::future<SdfBatch> next;
+  if (step < s.steps) next = std::async(std::launch::async, load, step);
   double interval_loss = 0;
   long interval_n = 0;
   bool stop = false;
+  std::vector<double> item_loss(static_cast<size_t>(local));
   while (step < s.steps && !stop) {
-    SdfBatch batch = sampler.batch(step);
-    augment_images(batch.images, s.augment, s.seed, static_cast<uint64_t>(step) * static_cast<uint64_t>(s.batch));
-    net.params().zero_grad();
-    const double loss = net.forward_backward(batch.images, split_points(batch), batch.cameras);
+    SdfBatch batch = next.get();
+    if (step + 1 < s.steps) next = std::async(std::launch::async, load, step + 1);
+    const std::vector<PointsF> points = split_points(batch);
+    tbb::parallel_for(0, local, [&](int k) {
+      flush_denormals_on_this_thread();
+      PoseNet& r = *replicas[static_cast<size_t>(k)];
+      r.params().zero_grad();
+      item_loss[static_cast<size_t>(k)] =
+          r.forward_backward(batch.images.middleRows(k, 1), {points[static_cast<size_t>(k)]},
+                             {batch.cameras[static_cast<size_t>(k)]}, 1.0 / s.batch);
+    });
+    double loss = 0;
+    for (const double l : comm.gather(item_loss)) loss += l;
+    loss /= s.batch;
+    comm.ordered_sum(item_grads, net.params().grads.data(), net.params().size());
     if (s.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.params().size(), s.grad_clip);
     const double rate = lr.at(step);
     opt.step(net.params().values.data(), net.params().grads.data(), rate);
     ++step;
     interval_loss += loss;
     ++interval_n;
-    if (s.time_limit_seconds > 0 && elapsed() > s.time_limit_seconds) stop = true;
+    // Rank 0 decides when time is up, so that every rank stops after the same step.
+    if (s.time_limit_seconds > 0 && comm.broadcast(elapsed() > s.time_limit_seconds)) stop = true;
     PoseTrainEvent ev{step, s.steps, loss, rate, prior_seconds + elapsed()};
     Json row = {step, loss, nullptr, nullptr, nullptr, rate, ev.seconds};
-    if (step % s.val_every == 0 || step == s.steps || stop) {
+    if ((step % s.val_every == 0 || step == s.steps || stop) && comm.is_root()) {
       ev.validated = true;
-      ev.val = validate(net, val_set, s.batch);
+      ev.val = validate(replica_ptrs, val_set);
       result.val = ev.val;
       row[2] = ev.val.loss;
       row[3] = ev.val.d3d;

@@ -111,6 +111,19 @@ struct Chain {
     }
     if (layers.empty()) y = x;
   }
+  /// Forward FLOPs on an input of shape `in` (the first layer's share in *first when not null); *out = the
+  /// output shape.
+  double flops(Shape in, double* first = nullptr, Shape* out = nullptr) const {
+    double total = 0;
+    for (size_t i = 0; i < layers.size(); ++i) {
+      const double f = layers[i]->forward_flops(in);
+      if (i == 0 && first) *first = f;
+      total += f;
+      in = layers[i]->output_shape(in);
+    }
+    if (out) *out = in;
+    return total;
+  }
   static const TensorT<T>& output(const TensorT<T>& x, const std::vector<TensorT<T>>& acts) {
     return acts.empty() ? x : acts.back();
   }
@@ -279,6 +292,39 @@ SdfNetT<T>::~SdfNetT() = default;
 template <typename T>
 int SdfNetT<T>::local_channels(int stream) const {
   return impl_->streams.at(static_cast<size_t>(stream)).local_channels;
+}
+
+template <typename T>
+double SdfNetT<T>::train_step_flops(int batch, int points) const {
+  const Impl& m = *impl_;
+  const int64_t S = config_.image_size, P = points;
+  // Per item: forward f, backward 2f (weights + inputs) less the input gradients that are not computed.
+  double fwd = 0, no_dx = 0;
+  Shape in{1, 3, S, S};
+  for (size_t k = 0; k < m.stages.size(); ++k) {
+    double first = 0;
+    Shape out;
+    fwd += m.stages[k].flops(in, &first, &out);
+    if (k == 0) no_dx += first;  // no gradient for the image
+    in = out;
+  }
+  fwd += m.global.flops(in);
+  for (const auto& s : m.streams) {
+    double first = 0;
+    Shape out;
+    fwd += s.point_mlp.flops({1, P, 3}, &first, &out);
+    no_dx += first;  // no gradient for the points
+    fwd += s.first_p->forward_flops(out);
+    if (s.first_g) fwd += s.first_g->forward_flops({1, config_.global_features});
+    const int64_t h1 = config_.decoder[0];
+    for (int k = 0; k < s.local_maps; ++k) {
+      const int64_t side = m.map_sizes[static_cast<size_t>(k)];
+      fwd += s.local_proj[static_cast<size_t>(k)]->forward_flops({1, m.map_channels[static_cast<size_t>(k)], side, side});
+      fwd += 8.0 * static_cast<double>(P * h1);  // bilinear gather: 4 weighted taps of h1 values
+    }
+    fwd += s.rest.flops({1, P, h1});
+  }
+  return static_cast<double>(batch) * (3.0 * fwd - no_dx);
 }
 
 template <typename T>

@@ -125,6 +125,12 @@ class SdfNetT {
   /// Local feature of points (N x L, all maps concatenated in order) for tests.
   void local_features(const ShapeCode& code, const PointsF& points, TensorT<T>& features) const;
 
+  /// Floating-point operations of one training step (forward + backward) on `batch` items of `points` points each:
+  /// the multiply-adds of every convolution and dense layer (Layer::forward_flops) and of the bilinear gathers;
+  /// backward counts weight and input gradients, except the input gradients of the image and of the points, which
+  /// are never computed. Per-shape work (encoder, global feature, local projections) is counted once per item.
+  [[nodiscard]] double train_step_flops(int batch, int points) const;
+
   /// Channel count of the local feature a stream sees (0 for global-only).
   [[nodiscard]] int local_channels(int stream) const;
   /// Output size (h = w) of each encoder stage.

@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "core/random.h"
 #include "nets/checkpoint.h"
+#include "nets/comm.h"
 #include "nets/denormals.h"
 #include "nets/loss.h"
 #include "nets/optim.h"
@@ -13,8 +14,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <iomanip>
 #include <sstream>
+
+#include <tbb/parallel_for.h>
 
 namespace fs = std::filesystem;
 
@@ -95,7 +99,7 @@ void save_sdf_model(const std::string& path, const SdfNet& net, const Json& trai
   ck.header["architecture"] = net.params().architecture();
   ck.header["n_params"] = net.n_params();
   ck.header["training"] = training;
-  ck.set_block("params", net.params().values);
+  ck.set_block("params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
   save_checkpoint(path, ck);
 }
 
@@ -123,9 +127,15 @@ SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, i
   SdfValidation v;
   const SdfNetConfig& c = net.config();
   const int n_shapes = std::min<int>(shapes, static_cast<int>(data.size()));
-  double loss = 0;
-  long right = 0, total = 0, inter = 0, uni = 0;
-  for (int s = 0; s < n_shapes; ++s) {
+  // One task per shape (image decoding, encoding and prediction); the per-shape figures are added in shape order.
+  struct PerShape {
+    double loss = 0;
+    long right = 0, total = 0, inter = 0, uni = 0;
+  };
+  std::vector<PerShape> per(static_cast<size_t>(std::max(0, n_shapes)));
+  tbb::parallel_for(0, n_shapes, [&](int s) {
+    flush_denormals_on_this_thread();
+    PerShape& r = per[static_cast<size_t>(s)];
     PointsF pts;
     Eigen::VectorXf sdf;
     draw_samples(data.samples(s), points, Rng::mix(seed + 77 * static_cast<uint64_t>(s)), pts, sdf);
@@ -136,14 +146,23 @@ SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, i
     Tensor tp({1, pred.size()}), ts({1, sdf.size()});
     std::copy(pred.data(), pred.data() + pred.size(), tp.ptr());
     std::copy(sdf.data(), sdf.data() + sdf.size(), ts.ptr());
-    loss += variant_loss(c, tp, ts, nullptr);
+    r.loss = variant_loss(c, tp, ts, nullptr);
     for (Eigen::Index i = 0; i < pred.size(); ++i) {
       const bool gt_in = sdf[i] - c.sdf_offset < 0.f, pr_in = predicted_inside(c, pred[i]);
-      right += gt_in == pr_in;
-      inter += gt_in && pr_in;
-      uni += gt_in || pr_in;
-      ++total;
+      r.right += gt_in == pr_in;
+      r.inter += gt_in && pr_in;
+      r.uni += gt_in || pr_in;
+      ++r.total;
     }
+  });
+  double loss = 0;
+  long right = 0, total = 0, inter = 0, uni = 0;
+  for (const PerShape& r : per) {
+    loss += r.loss;
+    right += r.right;
+    total += r.total;
+    inter += r.inter;
+    uni += r.uni;
   }
   v.shapes = n_shapes;
   v.loss = n_shapes ? loss / n_shapes : 0;
@@ -152,9 +171,9 @@ SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, i
   return v;
 }
 
-
-void jitter_cameras(std::vector<Camera>& cameras, double sigma_deg, uint64_t seed, long step) {
+void jitter_cameras(std::vector<Camera>& cameras, double sigma_deg, uint64_t seed, long step, int first_item) {
   Rng rng = Rng::derived(seed ^ 0x6a177e5ULL, static_cast<uint64_t>(step));
+  for (int skip = 0; skip < first_item; ++skip) (void)rng.normal();
   for (Camera& c : cameras) {
     const double angle = rng.normal() * sigma_deg * M_PI / 180.0;
     c.R = c.R * Mat3(Eigen::AngleAxisd(angle, Vec3::UnitY()));
@@ -262,40 +281,80 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     tr["val"] = {{"loss", v.loss}, {"sign_accuracy", v.sign_accuracy}, {"sample_iou", v.sample_iou},
                  {"shapes", v.shapes}};
     ck.header["training"] = tr;
-    ck.set_block("params", net.params().values);
+    ck.set_block("params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
     ck.put_optimizer(opt);
     save_checkpoint(st.out, ck);
     write_text_atomic(res.csv, format_csv(header, rows));
     write_loss_plot_svg(res.plot, rows, header, {1, 4}, "SDF network: training and validation loss");
   };
 
-  SdfNet::Workspace ws;
-  Tensor images, points, sdf, pred, dpred;
+  // Data-parallel steps (nets/comm.h): this rank's items [i0, i1) of every batch, one replica of the network per
+  // item (sharing net's values, owning a gradient buffer), run in parallel; the step's gradient is the sum of the
+  // item gradients in item order, the same bytes for any thread count and any number of ranks.
+  const Comm& comm = Comm::world();
+  require(comm.size() <= st.batch, "train sdf: more MPI ranks (" + std::to_string(comm.size()) +
+                                       ") than items per batch (" + std::to_string(st.batch) + ")");
+  const auto [i0, i1] = comm.item_range(st.batch);
+  const int local = i1 - i0;
+  struct Item {
+    std::unique_ptr<SdfNet> net;
+    SdfNet::Workspace ws;
+    Tensor image, points, sdf, pred, dpred;
+    double loss = 0;
+  };
+  std::vector<Item> items(static_cast<size_t>(local));
+  std::vector<const float*> item_grads;
+  for (Item& it : items) {
+    it.net = std::make_unique<SdfNet>(st.net);
+    it.net->params().share_values(net.params());
+    item_grads.push_back(it.net->params().grads.data());
+  }
+  const float inv_batch = 1.0f / static_cast<float>(st.batch);
+  // The next step's batch is read while this one trains.
+  auto load = [&sampler, i0 = i0, i1 = i1](long at) { return sampler.batch(at, i0, i1); };
+  std::future<SdfBatch> next;
+  if (step < st.steps) next = std::async(std::launch::async, load, step);
+
   double interval_loss = 0;
   int interval_n = 0;
   const int S = kNetImageSize;
   while (step < st.steps) {
-    SdfBatch b = sampler.batch(step);
-    if (st.camera_jitter_deg > 0) jitter_cameras(b.cameras, st.camera_jitter_deg, st.seed, step);
-    const int64_t B = b.size(), N = b.points_per_item;
-    images.resize({B, 3, S, S});
-    std::copy(b.images.data(), b.images.data() + b.images.size(), images.ptr());
-    points.resize({B, N, 3});
-    std::copy(b.points.data(), b.points.data() + b.points.size(), points.ptr());
-    sdf.resize({B, N});
-    std::copy(b.sdf.data(), b.sdf.data() + b.sdf.size(), sdf.ptr());
-    net.forward(images, b.cameras, points, ws, pred);
-    const double loss = variant_loss(st.net, pred, sdf, &dpred);
+    SdfBatch b = next.get();
+    if (step + 1 < st.steps) next = std::async(std::launch::async, load, step + 1);
+    if (st.camera_jitter_deg > 0) jitter_cameras(b.cameras, st.camera_jitter_deg, st.seed, step, i0);
+    const int64_t N = b.points_per_item;
+    tbb::parallel_for(0, local, [&](int k) {
+      flush_denormals_on_this_thread();
+      Item& it = items[static_cast<size_t>(k)];
+      it.image.resize({1, 3, S, S});
+      std::copy(b.images.row(k).data(), b.images.row(k).data() + 3 * S * S, it.image.ptr());
+      it.points.resize({1, N, 3});
+      std::copy(b.points.data() + 3 * k * N, b.points.data() + 3 * (k + 1) * N, it.points.ptr());
+      it.sdf.resize({1, N});
+      std::copy(b.sdf.data() + k * N, b.sdf.data() + (k + 1) * N, it.sdf.ptr());
+      it.net->forward(it.image, {b.cameras[static_cast<size_t>(k)]}, it.points, it.ws, it.pred);
+      // The step's loss is the mean of the item losses: each item's gradient is weighted by 1 / batch.
+      it.loss = variant_loss(st.net, it.pred, it.sdf, &it.dpred);
+      for (float& g : it.dpred.data) g *= inv_batch;
+      it.net->params().zero_grad();
+      it.net->backward(it.ws, it.dpred);
+    });
+    std::vector<double> mine;
+    for (const Item& it : items) mine.push_back(it.loss);
+    double loss = 0;
+    for (const double l : comm.gather(mine)) loss += l;
+    loss /= st.batch;
     if (!std::isfinite(loss)) throw Error("train sdf: loss became non-finite at step " + std::to_string(step));
-    net.params().zero_grad();
-    net.backward(ws, dpred);
+    comm.ordered_sum(item_grads, net.params().grads.data(), net.n_params());
     if (st.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.n_params(), st.grad_clip);
     const double lr = sched.at(step);
     opt.step(net.params().values.data(), net.params().grads.data(), lr);
     ++step;
     interval_loss += loss;
     ++interval_n;
-    const bool out_of_time = st.time_limit_seconds > 0 && elapsed() >= st.time_limit_seconds;
+    // Rank 0 decides when time is up, so that every rank stops after the same step.
+    const bool out_of_time =
+        st.time_limit_seconds > 0 && comm.broadcast(elapsed() >= st.time_limit_seconds);
     const bool do_val = step % std::max(1, st.val_every) == 0 || step == st.steps || out_of_time;
     SdfTrainEvent ev{step, st.steps, loss, lr, seconds_before + elapsed()};
     if (step % kLogEvery == 0 || do_val) {
@@ -304,7 +363,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
       res.final_loss = interval_loss / interval_n;
       interval_loss = 0;
       interval_n = 0;
-      if (do_val) {
+      if (do_val && comm.is_root()) {
         res.val = validate_sdf(net, *val, st.val_shapes, st.val_points, st.seed + 1);
         row[4] = res.val.loss;
         row[5] = res.val.sign_accuracy;
@@ -313,7 +372,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
         ev.val = res.val;
       }
       rows.push_back(row);
-      if (do_val) save(step, res.val);
+      if (do_val && comm.is_root()) save(step, res.val);
     }
     if (on_event) on_event(ev);
     if (out_of_time) break;

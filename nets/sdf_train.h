@@ -69,8 +69,9 @@ SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, i
 
 /// The camera jitter of SdfTrainSettings::camera_jitter_deg: turns every camera about the object's vertical axis
 /// (R' = R rot_y(a), the look-at orbit's azimuth change; t kept) by a Gaussian angle a of standard deviation
-/// `sigma_deg`, drawn in order from a generator derived from (seed, step).
-void jitter_cameras(std::vector<Camera>& cameras, double sigma_deg, uint64_t seed, long step);
+/// `sigma_deg`, drawn in order from a generator derived from (seed, step). `cameras` are the batch's items from
+/// `first_item` on (a rank's share): item b always gets the b-th draw.
+void jitter_cameras(std::vector<Camera>& cameras, double sigma_deg, uint64_t seed, long step, int first_item = 0);
 
 /// Save a model (network configuration + parameters; optional training state) / load one for inference.
 /// load_sdf_model throws IoError naming the file when it is missing, corrupt, or not an SDF model.

@@ -17,6 +17,13 @@ namespace sdfkit {
 
 using Shape = std::vector<int64_t>;
 
+/// Storage of every tensor, parameter and gradient buffer: aligned to Eigen's largest packet (64 bytes with
+/// AVX-512). Eigen's vectorised reductions (sum, dot, colwise sums) peel scalar elements until the first aligned
+/// address, so on storage with a varying alignment the summation order, and the last bits of the result, would
+/// depend on where the allocator put the buffer: a resumed run would then not continue bit for bit.
+template <typename T>
+using AlignedVector = std::vector<T, Eigen::aligned_allocator<T>>;
+
 /// "[2, 3, 4]" for messages.
 std::string shape_string(const Shape& shape);
 /// Product of the dimensions (1 for a scalar shape {}).
@@ -32,7 +39,7 @@ using ConstMatMapT = Eigen::Map<const MatRowT<T>>;
 template <typename T>
 struct TensorT {
   Shape shape;
-  std::vector<T> data;
+  AlignedVector<T> data;
 
   TensorT() = default;
   explicit TensorT(Shape s, T value = T(0)) : shape(std::move(s)), data(static_cast<size_t>(shape_size(shape)), value) {}

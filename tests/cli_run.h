@@ -18,16 +18,21 @@ struct CliRun {
   std::string out, err;
 };
 
-/// `sdfkit ARGS`; stdout and stderr pass through files in this process's own scratch folder (scratch.h).
-inline CliRun run_sdfkit(const std::string& args) {
+/// `PREFIX sdfkit ARGS` (PREFIX: a launcher such as "mpirun -np 2", or empty); stdout and stderr pass through
+/// files in this process's own scratch folder (scratch.h).
+inline CliRun run_sdfkit_under(const std::string& prefix, const std::string& args) {
   const std::filesystem::path scratch = scratch_dir("cli_io");
   const std::string out = (scratch / "stdout.txt").string(), err = (scratch / "stderr.txt").string();
-  const int status = std::system((std::string(SDFKIT_EXE) + " " + args + " > " + out + " 2> " + err).c_str());
+  const int status =
+      std::system((prefix + (prefix.empty() ? "" : " ") + SDFKIT_EXE + " " + args + " > " + out + " 2> " + err).c_str());
   CliRun r;
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   r.out = std::filesystem::exists(out) ? read_file(out) : "";
   r.err = std::filesystem::exists(err) ? read_file(err) : "";
   return r;
 }
+
+/// `sdfkit ARGS`.
+inline CliRun run_sdfkit(const std::string& args) { return run_sdfkit_under("", args); }
 
 }  // namespace sdfkit::test

@@ -181,7 +181,7 @@ TEST_CASE("results are identical for 1 and 2 threads") {
     net.backward(x, y, y, &dx);
     lin.forward(pts, yp);
     lin.backward(pts, yp, yp, &dp);
-    std::vector<float> all = y.data;
+    std::vector<float> all(y.data.begin(), y.data.end());
     all.insert(all.end(), dx.data.begin(), dx.data.end());
     all.insert(all.end(), store.grads.begin(), store.grads.end());
     all.insert(all.end(), s2.grads.begin(), s2.grads.end());

@@ -8,7 +8,9 @@
 #include "nets/checkpoint.h"
 
 #include <doctest/doctest.h>
+#include <tbb/global_control.h>
 
+#include <cmath>
 #include <filesystem>
 #include <unistd.h>
 
@@ -99,6 +101,53 @@ TEST_CASE("train pose with augmentation: seeded, recorded in the model header, c
   s.steps = 3;
   s.augment.noise = 0.05;
   CHECK_THROWS(train_pose(s));
+  fs::remove_all(root);
+}
+
+TEST_CASE("train pose gives the same model for 1 and 2 threads, and the replicas' gradient is the batch gradient") {
+  const fs::path root = make_pose_dataset();
+  std::vector<std::vector<float>> params;
+  for (const int threads : {1, 2}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
+    PoseTrainSettings s = tiny_settings(root, (root / ("threads" + std::to_string(threads) + ".ckpt")).string());
+    s.batch = 3;
+    train_pose(s);
+    params.push_back(model_params(s.out));
+  }
+  CHECK(params[0] == params[1]);
+  // One item per replica with weight 1/B, summed: the gradient of the mean loss over the batch.
+  const PoseTrainSettings s = tiny_settings(root, "");
+  DatasetSettings ds;
+  ds.root = root.string();
+  ds.split = "train";
+  const Dataset data(ds);
+  BatchSettings bs;
+  bs.batch_size = 3;
+  bs.points_per_shape = 16;
+  const SdfBatch b = BatchSampler(data, bs).batch(0);
+  std::vector<PointsF> pts;
+  for (int k = 0; k < 3; ++k) pts.push_back(b.points.middleRows(16 * k, 16));
+  PoseNet whole(s.net, true);
+  whole.init(9);
+  whole.params().zero_grad();
+  const double loss = whole.forward_backward(b.images, pts, b.cameras);
+  std::vector<double> summed(whole.n_params(), 0.0);
+  double loss_sum = 0;
+  for (int k = 0; k < 3; ++k) {
+    PoseNet rep(s.net, true);
+    rep.share_parameters(whole);
+    rep.params().zero_grad();
+    loss_sum += rep.forward_backward(b.images.middleRows(k, 1), {pts[k]}, {b.cameras[k]}, 1.0 / 3);
+    for (size_t i = 0; i < summed.size(); ++i) summed[i] += rep.params().grads[i];
+  }
+  CHECK(loss_sum / 3 == doctest::Approx(loss).epsilon(1e-6));
+  double num = 0, den = 0;
+  for (size_t i = 0; i < summed.size(); ++i) {
+    num += (summed[i] - whole.params().grads[i]) * (summed[i] - whole.params().grads[i]);
+    den += double(whole.params().grads[i]) * whole.params().grads[i];
+  }
+  CHECK(den > 0);
+  CHECK(std::sqrt(num / den) < 1e-5);
   fs::remove_all(root);
 }
 

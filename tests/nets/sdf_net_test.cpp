@@ -59,7 +59,7 @@ TEST_CASE("SDF network: finite-difference gradient check of every parameter clas
     net.forward(images, cams, points, ws, pred);
     net.params().zero_grad();
     net.backward(ws, r);
-    const std::vector<double> grad = net.params().grads;
+    const std::vector<double> grad(net.params().grads.begin(), net.params().grads.end());
     auto& w = net.params().values;
     REQUIRE(w.size() == grad.size());
     // Every layer's slice gets checked at a few entries (and the gradient must not be all zero).
