@@ -26,15 +26,23 @@ bool launched_by_mpi() {
   return false;
 }
 
-// acc[i] (= start[i], or 0 without start) + g_0[i] + g_1[i] + ... for i in [0, n), in parallel over fixed blocks.
-void add_in_order(const std::vector<const float*>& items, const float* start, float* out, size_t n) {
+// out[i] = (start[i], or 0 without start) + g_0[i] + g_1[i] + ... for i in [0, n), in parallel over fixed blocks;
+// each g_k[i] is zeroed after it is read when clear is set.
+void add_in_order(const std::vector<float*>& items, size_t offset, const float* start, float* out, size_t n,
+                  bool clear) {
   const size_t blocks = (n + kAddBlock - 1) / kAddBlock;
   tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
     const size_t i0 = b * kAddBlock, i1 = std::min(n, i0 + kAddBlock);
-    for (size_t i = i0; i < i1; ++i) {
-      float acc = start ? start[i] : 0.0f;
-      for (const float* g : items) acc += g[i];
-      out[i] = acc;
+    float* o = out + i0;
+    const size_t len = i1 - i0;
+    if (start)
+      std::copy(start + i0, start + i1, o);
+    else
+      std::fill(o, o + len, 0.0f);
+    for (float* item : items) {
+      float* g = item + offset + i0;
+      for (size_t i = 0; i < len; ++i) o[i] += g[i];
+      if (clear) std::fill(g, g + len, 0.0f);
     }
   });
 }
@@ -109,22 +117,20 @@ std::pair<int, int> Comm::item_range(int items, int rank, int size) {
   return {at(rank), at(rank + 1)};
 }
 
-void Comm::ordered_sum(const std::vector<const float*>& local, float* out, size_t n) const {
+void Comm::ordered_sum(const std::vector<float*>& local, float* out, size_t n, bool clear_local) const {
   if (!mpi_ || size_ == 1) {
-    add_in_order(local, nullptr, out, n);
+    add_in_order(local, 0, nullptr, out, n, clear_local);
     return;
   }
 #ifdef SDFKIT_HAVE_MPI
   // The rank chain, one segment at a time: receive the running sum of the ranks before, add this rank's items,
   // pass it on. The last rank then holds the total and broadcasts it.
-  std::vector<const float*> shifted(local.size());
   for (size_t s0 = 0; s0 < n; s0 += kSegment) {
     const size_t len = std::min(kSegment, n - s0);
-    for (size_t k = 0; k < local.size(); ++k) shifted[k] = local[k] + s0;
     if (rank_ > 0)
       check_mpi(MPI_Recv(out + s0, as_count(len), MPI_FLOAT, rank_ - 1, 17, MPI_COMM_WORLD, MPI_STATUS_IGNORE),
                 "MPI_Recv");
-    add_in_order(shifted, rank_ > 0 ? out + s0 : nullptr, out + s0, len);
+    add_in_order(local, s0, rank_ > 0 ? out + s0 : nullptr, out + s0, len, clear_local);
     if (rank_ + 1 < size_)
       check_mpi(MPI_Send(out + s0, as_count(len), MPI_FLOAT, rank_ + 1, 17, MPI_COMM_WORLD), "MPI_Send");
   }

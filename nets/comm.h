@@ -41,8 +41,9 @@ class Comm {
 
   /// out[i] = 0 + g_0[i] + g_1[i] + ... over all ranks' items in global item order; `local` holds this rank's
   /// item buffers in order (n floats each). Every rank receives the same `out`. Thread-parallel over fixed
-  /// segments of the buffer (the order of the additions for one element never changes).
-  void ordered_sum(const std::vector<const float*>& local, float* out, size_t n) const;
+  /// segments of the buffer (the order of the additions for one element never changes). With clear_local, each
+  /// local buffer is zeroed as it is read (the next step's gradients accumulate into zeros without a second pass).
+  void ordered_sum(const std::vector<float*>& local, float* out, size_t n, bool clear_local = false) const;
   /// Every rank's per-item values concatenated in rank order (= global item order).
   [[nodiscard]] std::vector<double> gather(const std::vector<double>& local) const;
   /// Rank 0's value on every rank.

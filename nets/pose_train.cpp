@@ -248,7 +248,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   const int local = i1 - i0;
   std::vector<std::unique_ptr<PoseNet>> replicas;
   std::vector<PoseNet*> replica_ptrs;
-  std::vector<const float*> item_grads;
+  std::vector<float*> item_grads;  // zero between steps: ordered_sum clears them
   for (int k = 0; k < local; ++k) {
     replicas.push_back(std::make_unique<PoseNet>(s.net, true));
     replicas.back()->share_parameters(net);
@@ -273,7 +273,6 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     tbb::parallel_for(0, local, [&](int k) {
       flush_denormals_on_this_thread();
       PoseNet& r = *replicas[static_cast<size_t>(k)];
-      r.params().zero_grad();
       item_loss[static_cast<size_t>(k)] =
           r.forward_backward(batch.images.middleRows(k, 1), {points[static_cast<size_t>(k)]},
                              {batch.cameras[static_cast<size_t>(k)]}, 1.0 / s.batch);
@@ -281,7 +280,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     double loss = 0;
     for (const double l : comm.gather(item_loss)) loss += l;
     loss /= s.batch;
-    comm.ordered_sum(item_grads, net.params().grads.data(), net.params().size());
+    comm.ordered_sum(item_grads, net.params().grads.data(), net.params().size(), true);
     if (s.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.params().size(), s.grad_clip);
     const double rate = lr.at(step);
     opt.step(net.params().values.data(), net.params().grads.data(), rate);

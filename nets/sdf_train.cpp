@@ -303,7 +303,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     double loss = 0;
   };
   std::vector<Item> items(static_cast<size_t>(local));
-  std::vector<const float*> item_grads;
+  std::vector<float*> item_grads;  // zero between steps: ordered_sum clears them
   for (Item& it : items) {
     it.net = std::make_unique<SdfNet>(st.net);
     it.net->params().share_values(net.params());
@@ -336,7 +336,6 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
       // The step's loss is the mean of the item losses: each item's gradient is weighted by 1 / batch.
       it.loss = variant_loss(st.net, it.pred, it.sdf, &it.dpred);
       for (float& g : it.dpred.data) g *= inv_batch;
-      it.net->params().zero_grad();
       it.net->backward(it.ws, it.dpred);
     });
     std::vector<double> mine;
@@ -345,7 +344,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     for (const double l : comm.gather(mine)) loss += l;
     loss /= st.batch;
     if (!std::isfinite(loss)) throw Error("train sdf: loss became non-finite at step " + std::to_string(step));
-    comm.ordered_sum(item_grads, net.params().grads.data(), net.n_params());
+    comm.ordered_sum(item_grads, net.params().grads.data(), net.n_params(), true);
     if (st.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.n_params(), st.grad_clip);
     const double lr = sched.at(step);
     opt.step(net.params().values.data(), net.params().grads.data(), lr);

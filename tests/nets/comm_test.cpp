@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <vector>
@@ -42,13 +43,18 @@ TEST_CASE("Comm ordered_sum adds item buffers in item order, bit for bit, at any
     for (const auto& it : items) acc += it[i];
     expected[i] = acc;
   }
-  std::vector<const float*> ptrs;
-  for (const auto& it : items) ptrs.push_back(it.data());
   for (int threads : {1, 2}) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
+    auto copies = items;
+    std::vector<float*> ptrs;
+    for (auto& it : copies) ptrs.push_back(it.data());
     std::vector<float> out(n, 42.f);
     Comm::world().ordered_sum(ptrs, out.data(), n);
     CHECK(std::memcmp(out.data(), expected.data(), n * sizeof(float)) == 0);
+    CHECK(copies == items);  // read only
+    Comm::world().ordered_sum(ptrs, out.data(), n, true);
+    CHECK(std::memcmp(out.data(), expected.data(), n * sizeof(float)) == 0);
+    for (const auto& c : copies) CHECK(std::all_of(c.begin(), c.end(), [](float v) { return v == 0.0f; }));
   }
   // The order matters for these values: the reversed order gives other bits somewhere.
   size_t differ = 0;
