@@ -124,7 +124,8 @@ int run_pair(const Opts& o) {
   } else {
     std::ostringstream t;
     t << "protocol " << to_string(r.protocol) << ", seed " << r.seed << ", " << r.samples << " points per shape"
-      << (r.emd_method.empty() ? "" : ", EMD " + r.emd_method) << '\n';
+      << (r.emd_method.empty() ? "" : ", EMD " + r.emd_method) << '\n'
+      << "  points: prediction " << r.pred_sampling << ", ground truth " << r.gt_sampling << '\n';
     for (const auto& m : r.metrics) {
       t << "  " << m.label << ": ";
       if (m.value) {
