@@ -273,3 +273,17 @@ TEST_CASE("eval of two 2048-point clouds under tmnet scores the points as given,
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(r.out.find("points: prediction subsampled, ground truth as_given") != std::string::npos);
 }
+
+TEST_CASE("eval of folders: only prediction files count as extra predictions, not recon's preview images") {
+  const fs::path root = scratch() / "extra";
+  fs::remove_all(root);
+  const fs::path gt = root / "gt", pred = root / "pred";
+  write_mesh((gt / "chair" / "a" / "gt.obj").string(), make_sphere(Vec3::Zero(), kR2, 24, 48));
+  write_mesh((pred / "chair" / "a.obj").string(), make_sphere(Vec3::Zero(), kR1, 24, 48));
+  write_text_atomic((pred / "chair" / "a.preview.png").string(), "not a mesh");  // as sdfkit recon writes
+  write_mesh((pred / "chair" / "z.obj").string(), make_sphere(Vec3::Zero(), kR1, 24, 48));  // no ground truth
+  const Run r = run("eval " + pred.string() + " " + gt.string() + " --protocol tmnet --no-emd --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out)["extra_predictions"] == 1);
+  CHECK(r.err.find("1 prediction file(s) have no ground truth") != std::string::npos);
+}
