@@ -64,8 +64,10 @@ Mesh read_shape(const std::string& path) {
   return read_mesh(path);
 }
 
+const char* const kPredictionExtensions[] = {".obj", ".ply", ".off", ".stl", ".xyz", ".npy"};
+
 std::string find_prediction(const fs::path& dir, const std::string& shape) {
-  for (const char* ext : {".obj", ".ply", ".off", ".stl", ".xyz", ".npy"}) {
+  for (const char* ext : kPredictionExtensions) {
     const fs::path p = dir / (shape + ext);
     if (fs::exists(p)) return p.string();
   }
@@ -124,7 +126,8 @@ int run_pair(const Opts& o) {
   } else {
     std::ostringstream t;
     t << "protocol " << to_string(r.protocol) << ", seed " << r.seed << ", " << r.samples << " points per shape"
-      << (r.emd_method.empty() ? "" : ", EMD " + r.emd_method) << '\n';
+      << (r.emd_method.empty() ? "" : ", EMD " + r.emd_method) << '\n'
+      << "  points: prediction " << r.pred_sampling << ", ground truth " << r.gt_sampling << '\n';
     for (const auto& m : r.metrics) {
       t << "  " << m.label << ": ";
       if (m.value) {
@@ -192,13 +195,20 @@ int run_folders(const Opts& o) {
       records.push_back(std::move(r));
     }
   if (records.empty()) throw InvalidInput(o.gt + ": no ground-truth shapes (<gt>/<category>/<shape>/gt.obj) found");
-  // Predictions without a ground truth are reported, not scored.
+  // Predictions without a ground truth are reported, not scored. Only files find_prediction could pick count:
+  // recon's <name>.preview.png beside each mesh is not a prediction.
+  const auto is_prediction = [](const fs::path& f) {
+    for (const char* ext : kPredictionExtensions)
+      if (f.extension() == ext) return true;
+    return false;
+  };
   long extra = 0;
   if (fs::is_directory(pred_root))
     for (const auto& cat : fs::directory_iterator(pred_root))
       if (cat.is_directory())
         for (const auto& f : fs::directory_iterator(cat.path()))
-          if (f.is_regular_file() && !fs::exists(gt_root / cat.path().filename() / f.path().stem() / "gt.obj"))
+          if (f.is_regular_file() && is_prediction(f.path()) &&
+              !fs::exists(gt_root / cat.path().filename() / f.path().stem() / "gt.obj"))
             ++extra;
 
   ProgressBar bar("eval", static_cast<long>(records.size()));

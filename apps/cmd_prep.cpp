@@ -36,15 +36,52 @@ struct ShapeJob {
   bool skipped = false;
 };
 
-bool is_mesh_file(const fs::path& p) { return has_mesh_extension(p.string()) && fs::is_regular_file(p); }
+/// A mesh path to prepare: a file with a mesh extension, or a dangling symbolic link with one (reported as a
+/// failed item, not silently dropped).
+bool is_mesh_file(const fs::path& p) {
+  if (!has_mesh_extension(p.string())) return false;
+  std::error_code ec;
+  return fs::is_regular_file(p, ec) || (fs::is_symlink(fs::symlink_status(p, ec)) && !fs::exists(p, ec));
+}
+
+/// Mesh files below `dir`, as listed (every path starts with `dir`; links are never resolved into the paths).
+/// Sub-folders reached through symbolic links are walked like real ones; a link back to a folder that is being
+/// walked (a cycle) is not entered again. `active`: canonical paths of the folders being walked.
+void collect_meshes(const fs::path& dir, std::vector<fs::path>& out, std::vector<fs::path>& active) {
+  std::error_code ec;
+  const fs::path canonical = fs::canonical(dir, ec);
+  if (ec || std::find(active.begin(), active.end(), canonical) != active.end()) return;
+  active.push_back(canonical);
+  std::vector<fs::path> entries{fs::directory_iterator(dir), fs::directory_iterator{}};
+  std::sort(entries.begin(), entries.end());
+  for (const auto& p : entries) {
+    if (fs::is_directory(p, ec))
+      collect_meshes(p, out, active);
+    else if (is_mesh_file(p))
+      out.push_back(p);
+  }
+  active.pop_back();
+}
 
 /// Shape id of a mesh below a category folder: its stem when it sits directly in the category, else the name of
-/// the first folder below the category (ShapeNet's <synset>/<id>/models/model_normalized.obj).
+/// the first folder below the category (ShapeNet's <synset>/<id>/models/model_normalized.obj). Computed from the
+/// path as listed, never from where a symbolic link points.
 std::string shape_id(const fs::path& category_dir, const fs::path& file) {
-  const fs::path rel = fs::relative(file, category_dir);
+  const fs::path rel = file.lexically_relative(category_dir);
   auto it = rel.begin();
-  if (std::next(it) == rel.end()) return file.stem().string();
+  if (it == rel.end() || std::next(it) == rel.end()) return file.stem().string();
   return it->string();
+}
+
+/// Why `name` cannot be one folder level below the output folder ("" when it can). Category and shape ids come
+/// from file names and list lines; "..", "." or a '/' would put a shape's files outside <out>/<category>/<shape>/,
+/// on top of the dataset or of another shape.
+std::string bad_id_part(const std::string& name) {
+  if (name.empty()) return "it is empty";
+  if (name == "..") return "it names the parent folder";
+  if (name == ".") return "it names the folder itself";
+  if (name.find('/') != std::string::npos) return "it contains '/'";
+  return "";
 }
 
 std::vector<ShapeJob> gather(const std::string& input) {
@@ -58,10 +95,8 @@ std::vector<ShapeJob> gather(const std::string& input) {
       if (is_mesh_file(e)) {
         jobs.push_back({"default", e.stem().string(), e.string()});
       } else if (fs::is_directory(e)) {
-        std::vector<fs::path> files;
-        for (const auto& f : fs::recursive_directory_iterator(e))
-          if (is_mesh_file(f.path())) files.push_back(f.path());
-        std::sort(files.begin(), files.end());
+        std::vector<fs::path> files, active;
+        collect_meshes(e, files, active);
         for (const auto& f : files) jobs.push_back({e.filename().string(), shape_id(e, f), f.string()});
       }
     }
@@ -87,7 +122,7 @@ std::vector<ShapeJob> gather(const std::string& input) {
       category = line.substr(0, tab);
       path = line.substr(tab + 1);
     }
-    if (category.empty() || category.find('/') != std::string::npos)
+    if (!bad_id_part(category).empty())
       throw InvalidInput(input + ":" + std::to_string(number) + ": bad category '" + category + "'");
     fs::path p(path);
     if (!has_mesh_extension(path))  // most often: a mesh with an unknown extension read as a list
@@ -177,15 +212,30 @@ std::function<int()> setup_prep(CLI::App& app) {
     std::sort(all.begin(), all.end(), [](const ShapeJob& a, const ShapeJob& b) {
       return std::tie(a.category, a.shape, a.path) < std::tie(b.category, b.shape, b.path);
     });
+    // Ids are checked over the whole input before sharding, so that every shard agrees on which file owns an id.
+    std::map<std::pair<std::string, std::string>, std::string> owner;
+    for (auto& j : all) {
+      const std::string id = j.category + "/" + j.shape;
+      std::string why = bad_id_part(j.category);
+      const std::string own = "' cannot be a folder of its own in the output (";
+      if (!why.empty())
+        why = "category '" + j.category + own + why + ")";
+      else if (!(why = bad_id_part(j.shape)).empty())
+        why = "shape id '" + j.shape + own + why + ")";
+      if (!why.empty()) {
+        j.status = "failed";
+        j.reason = j.path + ": " + why;
+        continue;
+      }
+      const auto [it, fresh] = owner.emplace(std::make_pair(j.category, j.shape), j.path);
+      if (!fresh) {
+        j.status = "failed";
+        j.reason = j.path + ": duplicate shape id '" + id + "', already taken by " + it->second;
+      }
+    }
     std::vector<ShapeJob> jobs;
     for (size_t i = 0; i < all.size(); ++i)
       if (static_cast<long>(i % static_cast<size_t>(shard_n)) == shard_i) jobs.push_back(all[i]);
-    std::set<std::pair<std::string, std::string>> ids;
-    for (auto& j : jobs)
-      if (!ids.insert({j.category, j.shape}).second) {
-        j.status = "failed";
-        j.reason = j.path + ": duplicate shape id '" + j.category + "/" + j.shape + "' (another file has that stem)";
-      }
 
     const auto t0 = std::chrono::steady_clock::now();
     ProgressBar bar("prep", static_cast<long>(jobs.size()));
@@ -195,6 +245,7 @@ std::function<int()> setup_prep(CLI::App& app) {
       tbb::parallel_for(size_t(0), jobs.size(), [&](size_t i) {
         ShapeJob& j = jobs[i];
         if (j.status == "failed") {
+          bar.print_line(stderr, "sdfkit: error: " + j.reason);
           bar.tick();
           return;
         }

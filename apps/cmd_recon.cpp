@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <sstream>
 
@@ -158,6 +159,19 @@ std::function<int()> setup_recon(CLI::App& app) {
     Image mask;
     if (!o->mask.empty()) mask = read_image(o->mask);
 
+    // Output paths, fixed before any work: two inputs with one stem (a.png and a.jpg in a folder, or the same
+    // name in two listed folders) would write the same mesh; the later input fails as an item instead.
+    std::vector<std::string> mesh_paths(inputs.size()), clash(inputs.size());
+    std::map<std::string, size_t> owner;
+    for (size_t i = 0; i < inputs.size(); ++i) {
+      mesh_paths[i] = single_file ? o->out
+                                  : (fs::path(o->out) / (fs::path(inputs[i]).stem().string() + "." + o->format)).string();
+      const auto [it, fresh] = owner.emplace(fs::path(mesh_paths[i]).lexically_normal().string(), i);
+      if (!fresh)
+        clash[i] = inputs[i] + ": its output " + mesh_paths[i] + " is also the output of " + inputs[it->second] +
+                   " (same file name stem); not reconstructed";
+    }
+
     std::vector<Json> results(inputs.size());
     std::vector<int> failed(inputs.size(), 0);
     std::mutex io;
@@ -166,9 +180,9 @@ std::function<int()> setup_recon(CLI::App& app) {
       const std::string& in = inputs[i];
       Json j = {{"input", in}};
       try {
+        if (!clash[i].empty()) throw InvalidInput(clash[i]);
         const std::string stem = fs::path(in).stem().string();
-        const std::string mesh_path =
-            single_file ? o->out : (fs::path(o->out) / (stem + "." + o->format)).string();
+        const std::string& mesh_path = mesh_paths[i];
         const std::string preview_path =
             (fs::path(mesh_path).parent_path() / (fs::path(mesh_path).stem().string() + ".preview.png")).string();
         const Image img = read_image(in);

@@ -76,6 +76,10 @@ void write_image(const std::string& path, const Image& image) {
     spec.attribute("oiio:UnassociatedAlpha", 1);  // values are stored as given (straight alpha)
   }
   if (ext == "exr") spec.attribute("compression", "zip");
+  // OIIO stamps EXR (capDate) and TIFF (DateTime) files with the current time unless the spec holds a DateTime:
+  // the same pixels would give different bytes across a second boundary. EXIF's value for an unknown date
+  // (blanks but the colons) keeps every file a pure function of its pixels.
+  if (ext == "exr" || ext == "tif" || ext == "tiff") spec.attribute("DateTime", "    :  :     :  :  ");
   auto fail = [&](const std::string& what) {
     fs::remove(tmp, ec);
     throw IoError(path + ": " + what);

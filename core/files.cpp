@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -107,27 +108,41 @@ MatrixXfR read_npy(const std::string& path) {
   const bool f8 = header.find("'<f8'") != std::string::npos;
   if (!f4 && !f8) throw IoError(path + ": only little-endian float32/float64 .npy arrays are supported");
   if (header.find("'fortran_order': True") != std::string::npos) throw IoError(path + ": Fortran-order .npy not supported");
-  const size_t p0 = header.find('(');
-  const size_t p1 = header.find(')', p0);
+  const size_t key = header.find("'shape'");
+  const size_t p0 = key == std::string::npos ? key : header.find('(', key);
+  const size_t p1 = p0 == std::string::npos ? p0 : header.find(')', p0);
   if (p0 == std::string::npos || p1 == std::string::npos) throw IoError(path + ": .npy header has no shape");
-  std::vector<long long> shape;
+  // Each dimension: decimal digits only, checked against the bytes the file holds before any product is formed,
+  // so that no count can overflow, wrap or ask for more memory than the file could fill.
+  const size_t elem = f4 ? 4 : 8;
+  const uint64_t available = (bytes.size() - data_start) / elem;  // values the data section can hold
+  std::vector<uint64_t> shape;
   std::stringstream ss(header.substr(p0 + 1, p1 - p0 - 1));
   std::string item;
   while (std::getline(ss, item, ',')) {
-    item.erase(std::remove(item.begin(), item.end(), ' '), item.end());
-    if (!item.empty()) shape.push_back(std::stoll(item));
+    item.erase(std::remove_if(item.begin(), item.end(), [](unsigned char c) { return std::isspace(c); }),
+               item.end());
+    if (item.empty()) continue;
+    uint64_t n = 0;
+    for (const char c : item)
+      if (c < '0' || c > '9') throw IoError(path + ": .npy shape entry '" + item + "' is not a non-negative integer");
+    if (item.size() > 18) throw IoError(path + ": .npy shape entry '" + item + "' is too large");
+    for (const char c : item) n = n * 10 + static_cast<uint64_t>(c - '0');  // < 10^18: no overflow
+    shape.push_back(n);
   }
   if (shape.empty() || shape.size() > 2) throw IoError(path + ": .npy array must be 1-D or 2-D");
-  const long long rows = shape[0], cols = shape.size() == 2 ? shape[1] : 1;
-  const size_t elem = f4 ? 4 : 8;
-  if (rows < 0 || cols < 0 || bytes.size() - data_start < static_cast<size_t>(rows * cols) * elem)
-    throw IoError(path + ": truncated .npy data");
-  MatrixXfR m(rows, cols);
+  const uint64_t rows = shape[0], cols = shape.size() == 2 ? shape[1] : 1;
+  if (cols > 0 && rows > available / cols)
+    throw IoError(path + ": truncated .npy data (shape " + std::to_string(rows) + " x " + std::to_string(cols) +
+                  " needs more than the " + std::to_string(bytes.size() - data_start) + " data bytes present)");
+  const size_t count = static_cast<size_t>(rows * cols);
+  MatrixXfR m(static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(cols));
+  if (count == 0) return m;  // (0,), (0, 3), (3, 0): nothing to copy
   const char* src = bytes.data() + data_start;
   if (f4) {
-    std::memcpy(m.data(), src, static_cast<size_t>(rows * cols) * 4);
+    std::memcpy(m.data(), src, count * 4);
   } else {
-    for (long long i = 0; i < rows * cols; ++i) {
+    for (size_t i = 0; i < count; ++i) {
       double v;
       std::memcpy(&v, src + 8 * i, 8);
       m.data()[i] = static_cast<float>(v);

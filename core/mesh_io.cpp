@@ -11,12 +11,14 @@
 #include <algorithm>
 #include <charconv>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
@@ -59,9 +61,9 @@ void append_node(const aiScene* scene, const aiNode* node, const aiMatrix4x4& pa
 }
 
 // ---- Structural checks before assimp ------------------------------------------------------------------------
-// assimp is lax on broken files: it silently drops faces with out-of-range indices (OFF) and parses "nan" in
-// OBJ/OFF as a finite number. These checks read the file once and reject such input with a message naming the
-// file; assimp then does the actual parsing. PLY files never reach assimp (core/ply_io.h).
+// assimp is lax on broken files: it parses "nan" in OBJ as a finite number and drops broken faces silently. These
+// checks read the file once and reject such input with a message naming the file; assimp then does the actual
+// parsing. PLY and OFF files never reach assimp (core/ply_io.h, read_off below).
 
 [[noreturn]] void fail_io(const std::string& path, const std::string& what) { throw IoError(path + ": " + what); }
 [[noreturn]] void fail_input(const std::string& path, const std::string& what) { throw InvalidInput(path + ": " + what); }
@@ -126,54 +128,156 @@ void check_obj(const std::string& path, const std::string& text) {
   }
 }
 
-void check_off(const std::string& path, const std::string& text) {
-  std::vector<std::string> lines;
-  for (size_t pos = 0; pos < text.size();) {
+// ---- OFF ----------------------------------------------------------------------------------------------------
+// sdfkit's own reader: assimp 5.2 crashes on small hostile OFF files that pass any cheap pre-check, and the format
+// is simple. Accepted: an optional header line "OFF" (or COFF, NOFF, CNOFF, STOFF, ...; counts may follow the
+// keyword on the same line), '#' comments and blank lines anywhere, a counts line "nv nf [ne]", nv vertex lines
+// "x y z [more numbers]" (COFF: colour r g b [a] after the position, and after the normal for CNOFF; 0-255 integers
+// or 0-1 floats), nf face lines "n i1 ... in [colour]" with 0-based indices. Polygons are fanned into triangles;
+// faces of fewer than 3 vertices (points, lines) carry no surface and are skipped. Binary OFF and 4OFF/nOFF are
+// refused. Line numbers in messages count from 1, as in an editor.
+
+struct OffLine {
+  long number;       // 1-based line number in the file
+  std::string text;  // without comment and line break
+};
+
+[[noreturn]] void fail_off(const std::string& path, const OffLine& line, const std::string& what, bool io = true) {
+  const std::string msg = path + ": line " + std::to_string(line.number) + ": " + what;
+  if (io) throw IoError(msg);
+  throw InvalidInput(msg);
+}
+
+/// Parses a non-negative decimal integer token at `c` (skipping blanks first); false when there is none or it
+/// exceeds `limit`.
+bool parse_count(const char*& c, long limit, long& out) {
+  while (*c == ' ' || *c == '\t' || *c == '\r') ++c;
+  if (*c < '0' || *c > '9') return false;
+  long v = 0;
+  for (; *c >= '0' && *c <= '9'; ++c) {
+    if (v > (limit - (*c - '0')) / 10) return false;
+    v = v * 10 + (*c - '0');
+  }
+  if (*c != 0 && *c != ' ' && *c != '\t' && *c != '\r') return false;
+  out = v;
+  return true;
+}
+
+void read_off(const std::string& path, std::vector<Vec3>& V, std::vector<std::array<int32_t, 3>>& F,
+              std::vector<Eigen::Vector3f>& C, bool& colored) {
+  const std::string text = read_file(path);
+  std::vector<OffLine> lines;
+  long number = 0;
+  for (size_t pos = 0; pos <= text.size();) {
     size_t end = text.find('\n', pos);
     if (end == std::string::npos) end = text.size();
+    ++number;
     std::string line = text.substr(pos, end - pos);
     pos = end + 1;
+    if (line.find('\0') != std::string::npos)
+      fail_io(path, "line " + std::to_string(number) + ": binary data (binary OFF is not supported)");
     if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    lines.push_back(line);
+    if (line.find_first_not_of(" \t\r") != std::string::npos) lines.push_back({number, std::move(line)});
   }
   if (lines.empty()) fail_io(path, "empty file");
   size_t li = 0;
-  std::string first = lines[0];
-  const size_t start = first.find_first_not_of(" \t");
-  if (first.compare(start, 3, "OFF") != 0 && first.find("OFF") == std::string::npos)
-    fail_io(path, "not an OFF file (no OFF header)");
-  // Counts may follow the keyword on the same line.
-  std::string counts = first.substr(first.find("OFF") + 3);
-  if (counts.find_first_not_of(" \t\r") == std::string::npos) {
-    if (lines.size() < 2) fail_io(path, "truncated OFF file (no vertex/face counts)");
-    counts = lines[++li];
+  bool has_normals = false, has_colors = false;
+  const char* c = lines[0].text.c_str();
+  while (*c == ' ' || *c == '\t') ++c;
+  if (std::isalpha(static_cast<unsigned char>(*c)) || (*c >= '0' && *c <= '9' && std::strstr(c, "OFF") != nullptr)) {
+    // Header keyword: [ST][C][N][4][n]OFF.
+    const char* k = c;
+    std::string prefix;
+    while (*k && *k != ' ' && *k != '\t' && *k != '\r') ++k;
+    const std::string keyword(c, k);
+    if (keyword.size() < 3 || keyword.compare(keyword.size() - 3, 3, "OFF") != 0)
+      fail_off(path, lines[0], "not an OFF file (the header '" + keyword + "' is not OFF, COFF, NOFF, ...)");
+    prefix = keyword.substr(0, keyword.size() - 3);
+    if (prefix.rfind("ST", 0) == 0) prefix.erase(0, 2);  // texture coordinates: after the colour, ignored
+    if (!prefix.empty() && prefix[0] == 'C') has_colors = true, prefix.erase(0, 1);
+    if (!prefix.empty() && prefix[0] == 'N') has_normals = true, prefix.erase(0, 1);
+    if (!prefix.empty())
+      fail_off(path, lines[0], "unsupported OFF variant '" + keyword + "' (4OFF, nOFF and binary OFF are not read)");
+    c = k;
+    while (*c == ' ' || *c == '\t' || *c == '\r') ++c;
+    if (std::strncmp(c, "BINARY", 6) == 0) fail_off(path, lines[0], "binary OFF is not supported");
+    if (*c == 0) {  // counts on the next line
+      if (lines.size() < 2) fail_off(path, lines[0], "truncated OFF file (no vertex/face counts)");
+      li = 1;
+      c = lines[li].text.c_str();
+    }
   }
-  long nv = -1, nf = -1;
-  if (std::sscanf(counts.c_str(), "%ld %ld", &nv, &nf) != 2 || nv < 0 || nf < 0)
-    fail_io(path, "malformed OFF counts line '" + counts + "'");
-  if (static_cast<long>(lines.size()) - static_cast<long>(li) - 1 < nv + nf)
-    fail_io(path, "truncated OFF file (" + std::to_string(nv) + " vertices and " + std::to_string(nf) +
-                      " faces announced, " + std::to_string(lines.size() - li - 1) + " data lines present)");
+  const OffLine& counts_line = lines[li];
+  const size_t data_lines = lines.size() - li - 1;
+  // Counts beyond what the file can hold (one line per vertex and per face) are refused before any allocation;
+  // vertex indices must fit the int32 face type.
+  long nv = 0, nf = 0;
+  if (!parse_count(c, std::numeric_limits<int32_t>::max(), nv) || !parse_count(c, std::numeric_limits<long>::max(), nf))
+    fail_off(path, counts_line,
+             "malformed OFF counts line '" + counts_line.text + "' (expected: vertices faces [edges])");
+  if (static_cast<size_t>(nv) > data_lines || static_cast<size_t>(nf) > data_lines - static_cast<size_t>(nv))
+    fail_off(path, counts_line,
+             "truncated OFF file (" + std::to_string(nv) + " vertices and " + std::to_string(nf) +
+                 " faces announced, " + std::to_string(data_lines) + " data lines follow)");
+  V.reserve(static_cast<size_t>(nv));
+  C.reserve(static_cast<size_t>(nv));
+  colored = has_colors;
   for (long v = 0; v < nv; ++v) {
-    double xyz[3];
-    const char* c = lines[li + 1 + v].c_str();
-    for (double& x : xyz)
-      if (!parse_double(c, x, &c)) fail_io(path, "malformed OFF vertex line '" + lines[li + 1 + v] + "'");
-    check_vertex(path, v, xyz);
+    const OffLine& line = lines[li + 1 + static_cast<size_t>(v)];
+    const char* p = line.text.c_str();
+    double x[10];
+    int n = 0;
+    const int wanted = 3 + (has_normals ? 3 : 0) + (has_colors ? 3 : 0);
+    for (; n < wanted; ++n)
+      if (!parse_double(p, x[n], &p)) break;
+    if (n < wanted)
+      fail_off(path, line, "malformed OFF vertex line '" + line.text + "' (expected " + std::to_string(wanted) +
+                               " numbers: x y z" + (has_normals ? " nx ny nz" : "") + (has_colors ? " r g b" : "") + ")");
+    if (!std::isfinite(x[0]) || !std::isfinite(x[1]) || !std::isfinite(x[2]))
+      fail_off(path, line, "non-finite vertex coordinates (NaN or Inf) at vertex " + std::to_string(v), false);
+    V.emplace_back(x[0], x[1], x[2]);
+    if (has_colors) {
+      const double* rgb = x + (has_normals ? 6 : 3);
+      const bool bytes = rgb[0] > 1 || rgb[1] > 1 || rgb[2] > 1;
+      Eigen::Vector3f col;
+      for (int k = 0; k < 3; ++k) {
+        if (!std::isfinite(rgb[k]) || rgb[k] < 0 || rgb[k] > 255)
+          fail_off(path, line, "vertex colour outside 0-255 or 0-1");
+        col[k] = static_cast<float>(bytes ? rgb[k] / 255.0 : rgb[k]);
+      }
+      C.push_back(col);
+    } else {
+      C.emplace_back(0.7f, 0.7f, 0.7f);
+    }
   }
   for (long f = 0; f < nf; ++f) {
-    const std::string& line = lines[li + 1 + nv + f];
-    const char* c = line.c_str();
-    char* e = nullptr;
-    const long n = std::strtol(c, &e, 10);
-    if (e == c || n < 0) fail_io(path, "malformed OFF face line '" + line + "'");
-    c = e;
+    const OffLine& line = lines[li + 1 + static_cast<size_t>(nv + f)];
+    const char* p = line.text.c_str();
+    long n = 0;
+    if (!parse_count(p, std::numeric_limits<long>::max(), n))
+      fail_off(path, line, "malformed OFF face line '" + line.text + "' (expected: n i1 ... in)");
+    long first = -1, prev = -1;
     for (long k = 0; k < n; ++k) {
-      const long idx = std::strtol(c, &e, 10);
-      if (e == c) fail_io(path, "truncated OFF face line '" + line + "'");
-      check_index(path, f, idx, nv);
-      c = e;
+      while (*p == ' ' || *p == '\t' || *p == '\r') ++p;
+      if (*p == 0)
+        fail_off(path, line, "truncated OFF face line '" + line.text + "' (" + std::to_string(n) +
+                                 " indices announced, " + std::to_string(k) + " present)");
+      char* e = nullptr;
+      errno = 0;
+      const long idx = std::strtol(p, &e, 10);
+      if (e == p || (*e != 0 && *e != ' ' && *e != '\t' && *e != '\r'))
+        fail_off(path, line, "malformed OFF face line '" + line.text + "' (indices are integers)");
+      if (errno == ERANGE || idx < 0 || idx >= nv)
+        fail_off(path, line,
+                 "face index out of range: face " + std::to_string(f) + " uses vertex " +
+                     std::string(p, static_cast<const char*>(e)) + " but the file has " + std::to_string(nv) +
+                     " vertices",
+                 false);
+      p = e;
+      if (k == 0) first = idx;
+      else if (k >= 2)
+        F.push_back({static_cast<int32_t>(first), static_cast<int32_t>(prev), static_cast<int32_t>(idx)});
+      prev = idx;
     }
   }
 }
@@ -218,7 +322,6 @@ void check_structure(const std::string& path, const std::string& ext) {
   const std::string data = read_file(path);
   if (data.find_first_not_of(" \t\r\n") == std::string::npos) fail_io(path, "empty file");
   if (ext == "obj") check_obj(path, data);
-  else if (ext == "off") check_off(path, data);
   else if (ext == "stl") check_stl(path, data);
 }
 
@@ -264,6 +367,26 @@ void weld_identical_vertices(std::vector<Vec3>& V, std::vector<Eigen::Vector3f>&
   C.swap(C2);
 }
 
+/// OBJ and STL: sdfkit's structural checks, then assimp.
+void read_with_assimp(const std::string& path, const std::string& ext, std::vector<Vec3>& V,
+                      std::vector<std::array<int32_t, 3>>& F, std::vector<Eigen::Vector3f>& C, bool& all_colored) {
+  check_structure(path, ext);
+  Assimp::Importer importer;
+  // Keep lines/points out, keep every face as is: sdfkit counts degenerate faces itself.
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  // No assimp post-processing: assimp 5.2 (Debian 12) segfaults in its post-processing steps on some valid
+  // coloured binary PLYs (seen on procedural benchmark shapes). append_node fans polygons into triangles and skips
+  // points and lines; identical vertices are welded below.
+  const aiScene* scene = importer.ReadFile(path, 0);
+  if (scene == nullptr || scene->mRootNode == nullptr) {
+    std::string why = importer.GetErrorString();
+    if (why.empty()) why = "cannot parse";
+    if (why.rfind(path, 0) == 0) throw IoError(why);  // assimp already named the file
+    throw IoError(path + ": " + why);
+  }
+  append_node(scene, scene->mRootNode, aiMatrix4x4(), V, F, C, all_colored, path);
+}
+
 }  // namespace
 
 bool has_mesh_extension(const std::string& path) {
@@ -301,25 +424,15 @@ Mesh read_mesh(const std::string& path, MeshReport* report) {
     }
     return validate_mesh(mesh, path, report);
   }
-  check_structure(path, ext);
-  Assimp::Importer importer;
-  // Keep lines/points out, keep every face as is: sdfkit counts degenerate faces itself.
-  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  // No assimp post-processing: assimp 5.2 (Debian 12) segfaults in its post-processing steps on some valid
-  // coloured binary PLYs (seen on procedural benchmark shapes). append_node fans polygons into triangles and skips
-  // points and lines; identical vertices are welded below.
-  const aiScene* scene = importer.ReadFile(path, 0);
-  if (scene == nullptr || scene->mRootNode == nullptr) {
-    std::string why = importer.GetErrorString();
-    if (why.empty()) why = "cannot parse";
-    if (why.rfind(path, 0) == 0) throw IoError(why);  // assimp already named the file
-    throw IoError(path + ": " + why);
-  }
   std::vector<Vec3> V;
   std::vector<std::array<int32_t, 3>> F;
   std::vector<Eigen::Vector3f> C;
   bool all_colored = true;
-  append_node(scene, scene->mRootNode, aiMatrix4x4(), V, F, C, all_colored, path);
+  if (ext == "off") {
+    read_off(path, V, F, C, all_colored);
+  } else {
+    read_with_assimp(path, ext, V, F, C, all_colored);
+  }
   weld_identical_vertices(V, C, F, all_colored);
   Mesh mesh;
   mesh.V.resize(static_cast<Eigen::Index>(V.size()), 3);

@@ -1,5 +1,5 @@
-// Mesh input (OBJ, OFF, STL through assimp; PLY ascii/binary through sdfkit's own core/ply_io.h), validation,
-// and mesh writers (OBJ, PLY, OFF).
+// Mesh input (OBJ, STL through assimp; PLY ascii/binary through sdfkit's own core/ply_io.h; OFF through sdfkit's
+// own reader), validation, and mesh writers (OBJ, PLY, OFF).
 #pragma once
 
 #include "core/types.h"
@@ -18,7 +18,7 @@ struct MeshReport {
 };
 
 /// Read a mesh by extension (obj, ply, off, stl; case-insensitive; .ply goes through read_ply of
-/// core/ply_io.h). Polygons are triangulated, identical vertices are merged, all parts are merged into one mesh in the file's global frame. Throws IoError naming
+/// core/ply_io.h, .off through sdfkit's OFF reader: messages give the line, counted from 1). Polygons are triangulated, identical vertices are merged, all parts are merged into one mesh in the file's global frame. Throws IoError naming
 /// the file when it cannot be parsed (unknown extension, truncated, malformed) and InvalidInput when it is
 /// unusable (empty, non-finite coordinates, out-of-range indices).
 Mesh read_mesh(const std::string& path, MeshReport* report = nullptr);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -100,6 +101,19 @@ class BodyReader {
     pos_ += n;
   }
 
+  /// A list length read from the file, as a count: a finite non-negative integer no larger than the values the
+  /// rest of the body could hold (each takes at least one byte), else IoError. A cast of 1e30 or NaN to an
+  /// integer would be undefined behaviour.
+  long list_length(double n, const char* where_element, long where_index) const {
+    if (!(n >= 0) || n != std::floor(n) || n > static_cast<double>(size_ - pos_))
+      throw IoError(name_ + ": bad PLY list length " + format_number(n) + " in " + where_element + " " +
+                    std::to_string(where_index) + " (expected a non-negative integer the remaining " +
+                    std::to_string(size_ - pos_) + " bytes can hold)");
+    return static_cast<long>(n);
+  }
+
+  [[nodiscard]] size_t remaining() const { return size_ - pos_; }
+
   /// Bytes left after the last element that are not whitespace (binary: any byte but '\n', '\r', ' ', '\0').
   [[nodiscard]] bool trailing_data() const {
     for (size_t i = pos_; i < size_; ++i) {
@@ -135,6 +149,12 @@ class BodyReader {
                     std::to_string(where_index));
     pos_ += n;
     return v;
+  }
+
+  static std::string format_number(double v) {
+    std::ostringstream o;
+    o << v;
+    return o.str();
   }
 
   [[noreturn]] void truncated(const char* where_element, long where_index) const {
@@ -189,8 +209,9 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
       std::string count;
       if (!(in >> el.name >> count)) throw bad();
       char* end = nullptr;
+      errno = 0;
       el.count = std::strtol(count.c_str(), &end, 10);
-      if (*end != '\0' || el.count < 0) throw bad();
+      if (*end != '\0' || el.count < 0 || errno == ERANGE || count.empty()) throw bad();
       elements.push_back(el);
     } else if (kw == "property") {
       if (elements.empty()) throw IoError(name + ": PLY property before any element ('" + line + "')");
@@ -276,13 +297,17 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
   std::vector<int32_t> poly;
   for (const auto& el : elements) {
     const char* ename = el.name.c_str();
+    if (el.props.empty()) continue;  // holds no bytes, however many items it declares
+    // Every item of an element with properties takes at least one byte: larger counts are truncated files,
+    // refused before any loop or allocation sized by them.
+    if (static_cast<size_t>(el.count) > body.remaining())
+      throw IoError(name + (fmt == 0 ? ": truncated PLY (" : ": truncated binary PLY (") + std::to_string(el.count) +
+                    " " + el.name + " items declared, " + std::to_string(body.remaining()) + " bytes of data left)");
     if (&el == vertex) {
       for (long i = 0; i < el.count; ++i) {
         for (const auto& p : el.props) {
           if (p.list()) {
-            const double n = body.read(p.count_type, ename, i);
-            if (n < 0) throw IoError(name + ": negative PLY list length in vertex " + std::to_string(i));
-            body.skip(p.type, static_cast<long>(n), ename, i);
+            body.skip(p.type, body.list_length(body.read(p.count_type, ename, i), ename, i), ename, i);
             continue;
           }
           const double v = body.read(p.type, ename, i);
@@ -302,16 +327,16 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
           throw InvalidInput(name + ": non-finite vertex coordinates (NaN or Inf) at vertex " + std::to_string(i));
       }
     } else if (&el == face) {
-      tris.reserve(static_cast<size_t>(std::min<long>(el.count, 50'000'000)) * 3);
+      // Reserve no more triangles than the rest of the file could describe (a face takes at least one byte per
+      // value): a 187-byte file declaring 50 million faces must not allocate 600 MB before failing.
+      tris.reserve(static_cast<size_t>(std::min<long>(el.count, static_cast<long>(body.remaining() / 4))) * 3);
       for (long f = 0; f < el.count; ++f) {
         for (const auto& p : el.props) {
           if (!p.list()) {
             body.read(p.type, ename, f);
             continue;
           }
-          const double n = body.read(p.count_type, ename, f);
-          if (n < 0) throw IoError(name + ": negative PLY list length in face " + std::to_string(f));
-          const auto count = static_cast<long>(n);
+          const long count = body.list_length(body.read(p.count_type, ename, f), ename, f);
           if (p.role != Role::Indices) {
             body.skip(p.type, count, ename, f);
             continue;
@@ -319,7 +344,7 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
           poly.clear();
           for (long k = 0; k < count; ++k) {
             const double idx = body.read(p.type, ename, f);
-            if (idx < 0 || idx >= static_cast<double>(nv) || idx != std::floor(idx))
+            if (!(idx >= 0 && idx < static_cast<double>(nv)) || idx != std::floor(idx))  // NaN fails too
               throw InvalidInput(name + ": face index out of range: face " + std::to_string(f) + " uses vertex " +
                                  std::to_string(static_cast<long long>(idx)) + " but the file has " +
                                  std::to_string(nv) + " vertices");
@@ -341,9 +366,7 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
       for (long i = 0; i < el.count; ++i)
         for (const auto& p : el.props) {
           if (p.list()) {
-            const double n = body.read(p.count_type, ename, i);
-            if (n < 0) throw IoError(name + ": negative PLY list length in " + el.name + " " + std::to_string(i));
-            body.skip(p.type, static_cast<long>(n), ename, i);
+            body.skip(p.type, body.list_length(body.read(p.count_type, ename, i), ename, i), ename, i);
           } else {
             body.skip(p.type, 1, ename, i);
           }

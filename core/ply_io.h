@@ -24,8 +24,9 @@ struct PlyInfo {
 /// integer count/index types, polygons fanned into triangles; every other element and property skipped by
 /// its declared type. No welding and no clean-up (read_mesh does that). `name` prefixes every message.
 /// Throws IoError for a malformed header, an unknown format or type, truncated data (fewer values than the
-/// counts declare) or trailing data (more than declared), InvalidInput for non-finite coordinates and
-/// out-of-range indices.
+/// counts declare, or counts the remaining bytes could not hold), a list length that is not a non-negative
+/// integer, or trailing data (more than declared), InvalidInput for non-finite coordinates and out-of-range
+/// indices.
 Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info = nullptr);
 
 /// Read a PLY file (parse_ply of its bytes, messages name `path`). IoError when it cannot be read.

@@ -32,13 +32,20 @@ void check_input(const Mesh& m, const std::string& what) {
 
 struct Samples {
   Points points, normals;  // normals empty for vertex samples and point clouds
+  std::string how;         // EvalResult::pred_sampling / gt_sampling
 };
 
 Samples draw(const Mesh& m, Protocol p, long n, uint64_t seed, const std::string& what) {
   Samples s;
-  if (p == Protocol::disn || is_point_cloud(m)) {
+  if (is_point_cloud(m)) {
+    CloudSampling how = CloudSampling::as_given;
+    s.points = sample_cloud(m.V, n, seed, &how, what);
+    s.how = to_string(how);
+  } else if (p == Protocol::disn) {
     s.points = sample_with_replacement(m.V, n, seed, what);
+    s.how = "vertices_with_replacement";
   } else {
+    s.how = "surface";
     SurfaceSamples ss = sample_surface(m, n, seed, what);
     s.points = std::move(ss.points);
     s.normals = std::move(ss.normals);
@@ -110,7 +117,7 @@ Json EvalResult::to_json() const {
     if (!m.note.empty()) notes[m.key] = m.note;
   }
   Json j = {{"protocol", to_string(protocol)}, {"seed", seed}, {"samples", samples}, {"seconds", seconds},
-            {"metrics", values}};
+            {"metrics", values}, {"sampling", {{"prediction", pred_sampling}, {"ground_truth", gt_sampling}}}};
   j["emd_method"] = emd_method.empty() ? Json(nullptr) : Json(emd_method);
   if (!notes.empty()) j["notes"] = notes;
   return j;
@@ -134,6 +141,8 @@ EvalResult evaluate(const Mesh& pred, const Mesh& gt, const ProtocolSettings& se
 
   const Samples sp = draw(pred, p, n, Rng::derived(settings.seed, 0).next(), "prediction");
   const Samples sg = draw(gt, p, n, Rng::derived(settings.seed, 1).next(), "ground truth");
+  r.pred_sampling = sp.how;
+  r.gt_sampling = sg.how;
   const PairEvaluator pair(sp.points, sg.points);
   const ChamferResult cd = pair.chamfer();
   const bool meshes = !is_point_cloud(pred) && !is_point_cloud(gt);

@@ -11,8 +11,10 @@
 //         matched distance x 100 (exact).
 // Random streams: prediction samples use Rng::derived(seed, 0), ground truth Rng::derived(seed, 1), IoU points
 // Rng::derived(seed, 2): the same seed gives the same numbers on every machine and thread count.
-// Point clouds (a Mesh with vertices and no faces) are scored from their points: disn draws from them as from
-// vertices, onet/tmnet draw N points from them with replacement; IoU and normal consistency need faces and are
+// Point clouds (a Mesh with vertices and no faces) are scored from their points under every protocol: a cloud of
+// exactly N points (the protocol's count, or --samples) is used as given, a larger one is subsampled to N without
+// replacement, a smaller one keeps every point once and is padded to N with points drawn with replacement
+// (metrics/sampling.h sample_cloud; EMD needs equal sizes). IoU and normal consistency need faces and are
 // reported as unavailable (null).
 #pragma once
 
@@ -53,11 +55,15 @@ struct EvalResult {
   uint64_t seed = 0;
   long samples = 0;
   std::string emd_method;
+  /// How each side's points were obtained: "surface" (area-weighted samples), "vertices_with_replacement" (disn on
+  /// a mesh), or for a point cloud "as_given", "subsampled", "padded" (metrics/sampling.h CloudSampling).
+  std::string pred_sampling, gt_sampling;
   std::vector<Metric> metrics;  ///< in the protocol's fixed order (metric_keys)
   double seconds = 0;           ///< wall time of the evaluation
 
   [[nodiscard]] std::optional<double> get(const std::string& key) const;
-  /// {"protocol", "seed", "samples", "emd_method", "seconds", "metrics": {key: value or null}, "notes": {...}}
+  /// {"protocol", "seed", "samples", "emd_method", "seconds", "metrics": {key: value or null}, "notes": {...},
+  ///  "sampling": {"prediction", "ground_truth"}}
   [[nodiscard]] Json to_json() const;
 };
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <vector>
 
 namespace sdfkit::metrics {
@@ -55,6 +56,52 @@ Points sample_with_replacement(const Points& points, long n, uint64_t seed, cons
   Rng rng(seed);
   Points out(n, 3);
   for (long i = 0; i < n; ++i) out.row(i) = points.row(static_cast<Eigen::Index>(rng.below(points.rows())));
+  return out;
+}
+
+Points sample_without_replacement(const Points& points, long n, uint64_t seed, const std::string& what) {
+  require_finite_points(points, what);
+  require(n > 0 && n <= points.rows(), what + ": cannot draw " + std::to_string(n) + " distinct points of " +
+                                           std::to_string(points.rows()));
+  Rng rng(seed);
+  std::vector<Eigen::Index> index(static_cast<size_t>(points.rows()));
+  std::iota(index.begin(), index.end(), Eigen::Index(0));
+  for (long i = 0; i < n; ++i) {  // partial Fisher-Yates: index[0, n) is a uniform n-subset
+    const auto j = static_cast<size_t>(i) + static_cast<size_t>(rng.below(static_cast<uint64_t>(points.rows() - i)));
+    std::swap(index[static_cast<size_t>(i)], index[j]);
+  }
+  std::sort(index.begin(), index.begin() + n);
+  Points out(n, 3);
+  for (long i = 0; i < n; ++i) out.row(i) = points.row(index[static_cast<size_t>(i)]);
+  return out;
+}
+
+std::string to_string(CloudSampling s) {
+  switch (s) {
+    case CloudSampling::as_given: return "as_given";
+    case CloudSampling::subsampled: return "subsampled";
+    case CloudSampling::padded: return "padded";
+  }
+  return "?";
+}
+
+Points sample_cloud(const Points& points, long n, uint64_t seed, CloudSampling* how, const std::string& what) {
+  require(n > 0, what + ": number of samples must be positive");
+  require_finite_points(points, what);
+  CloudSampling mode = CloudSampling::as_given;
+  Points out;
+  if (points.rows() == n) {
+    out = points;
+  } else if (points.rows() > n) {
+    mode = CloudSampling::subsampled;
+    out = sample_without_replacement(points, n, seed, what);
+  } else {
+    mode = CloudSampling::padded;
+    out.resize(n, 3);
+    out.topRows(points.rows()) = points;
+    out.bottomRows(n - points.rows()) = sample_with_replacement(points, n - points.rows(), seed, what);
+  }
+  if (how) *how = mode;
   return out;
 }
 

@@ -25,6 +25,22 @@ SurfaceSamples sample_surface(const Mesh& mesh, long n, uint64_t seed, const std
 /// this way). Throws InvalidInput if `points` is empty or non-finite.
 Points sample_with_replacement(const Points& points, long n, uint64_t seed, const std::string& what = "points");
 
+/// `n` distinct rows of `points` (n <= rows), drawn uniformly without replacement (seeded partial Fisher-Yates),
+/// kept in their order in `points`. Throws InvalidInput if n is not in [1, rows] or `points` is empty or non-finite.
+Points sample_without_replacement(const Points& points, long n, uint64_t seed, const std::string& what = "points");
+
+/// How a point cloud becomes the `n` points a protocol scores (metrics/protocols.h).
+enum class CloudSampling {
+  as_given,    ///< exactly n points: used as they are
+  subsampled,  ///< more than n: n of them drawn without replacement
+  padded,      ///< fewer than n: every point once, plus n - rows drawn with replacement (EMD needs equal sizes)
+};
+std::string to_string(CloudSampling s);  ///< "as_given", "subsampled", "padded"
+
+/// `n` points from a point cloud by the rule of CloudSampling (the choice is returned in `how`). Deterministic
+/// given the seed. Throws InvalidInput as sample_with_replacement.
+Points sample_cloud(const Points& points, long n, uint64_t seed, CloudSampling* how, const std::string& what = "points");
+
 /// Throws InvalidInput naming `what` if `points` is empty or holds a non-finite coordinate.
 void require_finite_points(const Points& points, const std::string& what);
 

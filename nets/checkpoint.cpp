@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 namespace sdfkit {
 namespace {
@@ -117,26 +118,51 @@ Checkpoint load_checkpoint(const std::string& path) {
     throw IoError(path + (stored != actual ? ": corrupt or truncated checkpoint (checksum mismatch)"
                                            : ": checkpoint header is not valid JSON"));
   }
-  size_t total = 0;
-  try {
-    for (const auto& b : header.at("blocks")) total += b.at("count").get<size_t>();
-  } catch (const Json::exception&) {
-    throw IoError(path + ": checkpoint header has no valid block table");
+  // The block table, checked before anything is copied: names are strings, offsets and counts non-negative
+  // integers, every block inside the payload (compared without forming off + count, which could wrap).
+  struct BlockEntry {
+    std::string name;
+    uint64_t offset = 0, count = 0;
+  };
+  std::vector<BlockEntry> table;
+  uint64_t total = 0;
+  const auto bad_table = [&](const std::string& why) {
+    return IoError(path + ": checkpoint header has no valid block table (" + why + ")");
+  };
+  if (!header.is_object() || !header.contains("blocks") || !header.at("blocks").is_array())
+    throw bad_table("no \"blocks\" array");
+  for (const auto& b : header.at("blocks")) {
+    const std::string which = "block " + std::to_string(table.size());
+    if (!b.is_object()) throw bad_table(which + " is not an object");
+    const auto field = [&](const char* key) -> const Json& {
+      if (!b.contains(key)) throw bad_table(which + " has no \"" + key + "\"");
+      return b.at(key);
+    };
+    const Json &name = field("name"), &offset = field("offset"), &count = field("count");
+    if (!name.is_string()) throw bad_table(which + ": \"name\" is not a string");
+    if (!offset.is_number_unsigned()) throw bad_table(which + ": \"offset\" is not a non-negative integer");
+    if (!count.is_number_unsigned()) throw bad_table(which + ": \"count\" is not a non-negative integer");
+    BlockEntry e{name.get<std::string>(), offset.get<uint64_t>(), count.get<uint64_t>()};
+    if (e.count > std::numeric_limits<uint64_t>::max() - total) throw bad_table("the block counts overflow");
+    total += e.count;
+    table.push_back(std::move(e));
   }
   if (payload % 4 != 0 || payload / 4 < total)
     throw IoError(path + ": truncated checkpoint (" + std::to_string(payload) + " payload bytes, the header lists " +
-                  std::to_string(total * 4) + ")");
+                  std::to_string(total) + " floats)");
   if (payload / 4 != total)
     throw IoError(path + ": checkpoint payload size " + std::to_string(payload) + " does not match the header");
   if (stored != actual) throw IoError(path + ": corrupt checkpoint (checksum mismatch)");
   Checkpoint ck;
   const char* data = bytes.data() + kPrefix + hlen;
-  for (const auto& b : header.at("blocks")) {
-    const size_t off = b.at("offset").get<size_t>(), count = b.at("count").get<size_t>();
-    if (off + count > total) throw IoError(path + ": checkpoint block table is inconsistent");
-    std::vector<float> v(count);
-    std::memcpy(v.data(), data + off * 4, count * 4);
-    ck.blocks.emplace_back(b.at("name").get<std::string>(), std::move(v));
+  for (const BlockEntry& e : table) {
+    if (e.offset > total || e.count > total - e.offset)
+      throw IoError(path + ": checkpoint block table is inconsistent (block '" + e.name + "' at offset " +
+                    std::to_string(e.offset) + " with " + std::to_string(e.count) + " values lies outside the " +
+                    std::to_string(total) + "-value payload)");
+    std::vector<float> v(static_cast<size_t>(e.count));
+    if (e.count > 0) std::memcpy(v.data(), data + e.offset * 4, static_cast<size_t>(e.count) * 4);
+    ck.blocks.emplace_back(e.name, std::move(v));
   }
   header.erase("blocks");
   ck.header = std::move(header);

@@ -246,3 +246,44 @@ TEST_CASE("eval of folders with --split: only the listed shapes are scored, a li
   CHECK(r.code == 1);
   CHECK(r.err.find("nosuch") != std::string::npos);
 }
+
+TEST_CASE("eval of two 2048-point clouds under tmnet scores the points as given, and says so") {
+  // Closed form as in tests/metrics/protocols_test.cpp: 2048 points 1 apart and their copies 0.1 away: CD x1000 =
+  // 20 exactly, EMD mean x100 = 10. Drawn with replacement, the same clouds would score CD about 1100.
+  const fs::path dir = scratch() / "clouds";
+  fs::create_directories(dir);
+  std::string a, b, big;
+  for (int i = 0; i < 2048; ++i) {
+    a += std::to_string(i) + " 0 0\n";
+    b += std::to_string(i) + " 0.1 0\n";
+  }
+  for (int i = 0; i < 3000; ++i) big += std::to_string(i) + " 0 0.5\n";
+  write_text_atomic((dir / "a.xyz").string(), a);
+  write_text_atomic((dir / "b.xyz").string(), b);
+  write_text_atomic((dir / "big.xyz").string(), big);
+  Run r = run("eval " + (dir / "a.xyz").string() + " " + (dir / "b.xyz").string() + " --protocol tmnet --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  Json j = Json::parse(r.out);
+  CHECK(j["metrics"]["cd"].get<double>() == doctest::Approx(20.0).epsilon(1e-9));
+  CHECK(j["metrics"]["emd"].get<double>() == doctest::Approx(10.0).epsilon(1e-9));
+  CHECK(j["sampling"]["prediction"] == "as_given");
+  CHECK(j["sampling"]["ground_truth"] == "as_given");
+  // A larger cloud is subsampled without replacement; the text output names the choice too.
+  r = run("eval " + (dir / "big.xyz").string() + " " + (dir / "b.xyz").string() + " --protocol tmnet --no-emd");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(r.out.find("points: prediction subsampled, ground truth as_given") != std::string::npos);
+}
+
+TEST_CASE("eval of folders: only prediction files count as extra predictions, not recon's preview images") {
+  const fs::path root = scratch() / "extra";
+  fs::remove_all(root);
+  const fs::path gt = root / "gt", pred = root / "pred";
+  write_mesh((gt / "chair" / "a" / "gt.obj").string(), make_sphere(Vec3::Zero(), kR2, 24, 48));
+  write_mesh((pred / "chair" / "a.obj").string(), make_sphere(Vec3::Zero(), kR1, 24, 48));
+  write_text_atomic((pred / "chair" / "a.preview.png").string(), "not a mesh");  // as sdfkit recon writes
+  write_mesh((pred / "chair" / "z.obj").string(), make_sphere(Vec3::Zero(), kR1, 24, 48));  // no ground truth
+  const Run r = run("eval " + pred.string() + " " + gt.string() + " --protocol tmnet --no-emd --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out)["extra_predictions"] == 1);
+  CHECK(r.err.find("1 prediction file(s) have no ground truth") != std::string::npos);
+}

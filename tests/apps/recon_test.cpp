@@ -152,3 +152,24 @@ TEST_CASE("recon --refine-camera: reported, closed, refused without an object") 
   CHECK(r.err.find("background") != std::string::npos);
   CHECK(!fs::exists(dir / "c.obj"));
 }
+
+TEST_CASE("recon of a folder where two images share a stem: the second fails as an item, the first's mesh stays") {
+  REQUIRE(have_models());
+  const fs::path dir = test::scratch_dir("recon_cli") / "stems";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "in");
+  // x.png (a chair) and x.tif (a car) both map to out/x.obj; x.json is the sidecar camera of both.
+  fs::copy_file(kSource + "/data/examples/chair_0003.png", dir / "in" / "x.png");
+  write_image((dir / "in" / "x.tif").string(), read_image(kSource + "/data/examples/car_0000.png"));
+  fs::copy_file(kSource + "/data/examples/chair_0003.json", dir / "in" / "x.json");
+  const Run r = run("recon " + (dir / "in").string() + " -o " + (dir / "out").string() +
+                    " --res 33 --cam sidecar --no-preview");
+  CHECK(r.code == 2);
+  CHECK(r.err.find((dir / "in" / "x.tif").string() + ": its output " + (dir / "out" / "x.obj").string() +
+                   " is also the output of " + (dir / "in" / "x.png").string()) != std::string::npos);
+  // out/x.obj is the chair's reconstruction, byte for byte the one of the chair alone (not overwritten by the car).
+  const Run alone = run("recon " + (dir / "in" / "x.png").string() + " -o " + (dir / "alone.obj").string() +
+                        " --res 33 --cam sidecar --no-preview");
+  REQUIRE(alone.code == 0);
+  CHECK(read_file((dir / "out" / "x.obj").string()) == read_file((dir / "alone.obj").string()));
+}

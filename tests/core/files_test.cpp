@@ -29,6 +29,61 @@ TEST_CASE("npy round trip is exact and readable as NumPy's header layout") {
   fs::remove_all(dir);
 }
 
+namespace {
+/// A version 1.0 .npy file with the given header dictionary text and `data` after it.
+std::string write_raw_npy(const fs::path& path, const std::string& dict, const std::string& data) {
+  std::string header = dict;
+  header.append((64 - (10 + header.size() + 1) % 64) % 64, ' ');
+  header.push_back('\n');
+  std::string bytes("\x93NUMPY\x01\x00", 8);
+  bytes.push_back(static_cast<char>(header.size() & 0xff));
+  bytes.push_back(static_cast<char>(header.size() >> 8));
+  write_text_atomic(path.string(), bytes + header + data);
+  return path.string();
+}
+
+std::string npy_error(const std::string& path) {
+  try {
+    (void)read_npy(path);
+  } catch (const IoError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    return std::string("not an IoError: ") + e.what();
+  }
+  return "no error";
+}
+}  // namespace
+
+TEST_CASE("npy: malformed or hostile shapes are IoErrors naming the file, empty arrays read as empty") {
+  const fs::path dir = test::scratch_dir("core_npy_hostile");
+  const std::string data(48, '\0');  // 12 float32 zeros
+  const auto dict = [](const std::string& shape) {
+    return "{'descr': '<f4', 'fortran_order': False, 'shape': " + shape + ", }";
+  };
+  for (const std::string shape : {"(abc,)", "(3, x)", "(-3, 4)", "(99999999999999999999999,)", "(1e3,)",
+                                  "(4611686018427387904, 4)",  // 2^62 x 4: the product wraps to 0 in 64 bits
+                                  "(3037000500, 3037000500)",  // the product overflows a signed 64-bit integer
+                                  "(100000000000,)",           // fits in memory arithmetic, not in the file
+                                  "(13,)", "()"}) {
+    CAPTURE(shape);
+    const std::string path = write_raw_npy(dir / "bad.npy", dict(shape), data);
+    const std::string err = npy_error(path);
+    CHECK(err.rfind(path + ": ", 0) == 0);  // an IoError whose message starts with the file name
+  }
+  // Empty arrays are valid: no copy from or to a null pointer, the right (empty) shape.
+  const MatrixXfR empty = read_npy(write_raw_npy(dir / "empty.npy", dict("(0,)"), ""));
+  CHECK(empty.rows() == 0);
+  CHECK(empty.size() == 0);
+  const MatrixXfR empty2 = read_npy(write_raw_npy(dir / "empty2.npy", dict("(0, 3)"), ""));
+  CHECK(empty2.rows() == 0);
+  CHECK(empty2.cols() == 3);
+  // Exactly the 12 values present: read.
+  const MatrixXfR full = read_npy(write_raw_npy(dir / "full.npy", dict("(3, 4)"), data));
+  CHECK(full.rows() == 3);
+  CHECK(full.cols() == 4);
+  CHECK((full.array() == 0.f).all());
+}
+
 TEST_CASE("atomic write leaves no file behind when the writer throws") {
   const fs::path dir = test::scratch_dir("core_atomic");
   fs::remove_all(dir);

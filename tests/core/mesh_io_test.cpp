@@ -5,8 +5,12 @@
 
 #include <doctest/doctest.h>
 
+#include <sys/wait.h>
+
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 
 using namespace sdfkit;
@@ -147,4 +151,126 @@ TEST_CASE("reader: broken files give clear errors naming the file (assimp alone 
   write_file_atomic(good, [&](std::ostream& o) { o << ply_binary(tet, faces); });
   CHECK(read_mesh(good).num_faces() == 4);
   fs::remove_all(dir);
+}
+
+namespace {
+/// read_mesh of `content` written to DIR/NAME; the error message ("" when none) and whether it was an IoError.
+std::string read_error(const fs::path& dir, const std::string& name, const std::string& content, bool* io = nullptr) {
+  const std::string path = (dir / name).string();
+  write_text_atomic(path, content);
+  try {
+    read_mesh(path);
+  } catch (const IoError& e) {
+    if (io) *io = true;
+    return e.what();
+  } catch (const InvalidInput& e) {
+    if (io) *io = false;
+    return e.what();
+  }
+  return "";
+}
+
+/// Signed volume of a closed triangle mesh (1 for the unit cube, outward faces).
+double signed_volume(const Mesh& m) {
+  double vol = 0;
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    vol += m.V.row(m.F(f, 0)).dot(m.V.row(m.F(f, 1)).cross(m.V.row(m.F(f, 2)))) / 6.0;
+  return vol;
+}
+
+const char* kCubeVertices = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n";
+const char* kCubeQuads = "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 2 3 7 6\n4 1 2 6 5\n4 0 4 7 3\n";
+}  // namespace
+
+TEST_CASE("OFF: sdfkit's reader takes headers, comments, polygons, colours, and skips points and lines") {
+  const fs::path dir = test::scratch_dir("core_off");
+  const std::vector<std::string> variants = {
+      std::string("OFF\n8 6 12\n") + kCubeVertices + kCubeQuads,
+      std::string("OFF 8 6 12\n") + kCubeVertices + kCubeQuads,                       // counts on the header line
+      std::string("8 6 0\n") + kCubeVertices + kCubeQuads,                            // no header
+      std::string("# a cube\nOFF\r\n\n# counts\n8 6 0 # trailing comment\n") + kCubeVertices + "\n" + kCubeQuads,
+      std::string("OFF\n8 8 0\n") + kCubeVertices + kCubeQuads + "1 0\n2 0 1\n",     // a point and a line
+  };
+  for (const std::string& text : variants) {
+    CAPTURE(text);
+    write_text_atomic((dir / "cube.off").string(), text);
+    const Mesh m = read_mesh((dir / "cube.off").string());
+    CHECK(m.num_vertices() == 8);
+    CHECK(m.num_faces() == 12);  // 6 quads fanned
+    CHECK(signed_volume(m) == doctest::Approx(1.0));
+    CHECK_FALSE(m.has_colors());
+  }
+  // COFF: r g b [a] after the position, 0-255 or 0-1.
+  const std::string coff = "COFF\n3 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n3 0 1 2\n";
+  write_text_atomic((dir / "tri.off").string(), coff);
+  const Mesh c = read_mesh((dir / "tri.off").string());
+  REQUIRE(c.has_colors());
+  CHECK(c.colors.rowwise().sum().isApproxToConstant(1.f));
+  CHECK(c.colors.maxCoeff() == 1.f);
+}
+
+TEST_CASE("OFF: hostile counts and broken lines are errors naming the file and the line, never a crash") {
+  const fs::path dir = test::scratch_dir("core_off_bad");
+  struct Bad {
+    std::string content, message;
+    bool io;
+  };
+  const std::string tri = "0 0 0\n1 0 0\n0 1 0\n";
+  const std::vector<Bad> cases = {
+      // nv + nf overflowed a signed long and passed the old truncation check
+      {"OFF\n3 9223372036854775807 0\n" + tri + "3 0 1 2\n", "line 2: truncated OFF file", true},
+      {"OFF\n9223372036854775807 9223372036854775807 0\n" + tri, "line 2: malformed OFF counts line", true},
+      {"OFF\n2000000000 1 0\n" + tri + "3 0 1 2\n", "line 2: truncated OFF file (2000000000 vertices", true},
+      {"OFF\n-3 1 0\n" + tri + "3 0 1 2\n", "line 2: malformed OFF counts line", true},
+      {"OFF\nthree 1 0\n" + tri + "3 0 1 2\n", "line 2: malformed OFF counts line", true},
+      {"OFF\n# c\n3 1 0\n" + tri + "\n3 0 1 9\n", "line 8: face index out of range: face 0 uses vertex 9", false},
+      {"OFF\n3 1 0\n" + tri + "3 0 1 -1\n", "line 6: face index out of range", false},
+      {"OFF\n3 1 0\n" + tri + "3 0 1 99999999999999999999999\n", "line 6: face index out of range", false},
+      {"OFF\n3 1 0\n" + tri + "3 0 1\n", "line 6: truncated OFF face line", true},
+      {"OFF\n3 1 0\n" + tri + "3000000000000 0 1 2\n", "line 6: truncated OFF face line", true},
+      {"OFF\n3 1 0\n" + tri + "3 0 1.5 2\n", "line 6: malformed OFF face line", true},
+      {"OFF\n3 1 0\n" + tri + "x 0 1 2\n", "line 6: malformed OFF face line", true},
+      {"OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n", "line 4: malformed OFF vertex line", true},
+      {"OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", "line 4: non-finite vertex coordinates", false},
+      {"4OFF\n3 1 0\n0 0 0 0\n1 0 0 0\n0 1 0 0\n3 0 1 2\n", "line 1: unsupported OFF variant '4OFF'", true},
+      {"OFF BINARY\n", "line 1: binary OFF is not supported", true},
+      {"PLY\n3 1 0\n" + tri + "3 0 1 2\n", "line 1: not an OFF file", true},
+      {"OFF\n", "line 1: truncated OFF file (no vertex/face counts)", true},
+      {"# only a comment\n", "empty file", true},
+  };
+  for (const Bad& c : cases) {
+    CAPTURE(c.content);
+    bool io = false;
+    const std::string path = (dir / "bad.off").string();
+    const std::string msg = read_error(dir, "bad.off", c.content, &io);
+    CHECK(msg.rfind(path + ": ", 0) == 0);
+    CHECK(msg.find(c.message) != std::string::npos);
+    CHECK(io == c.io);
+  }
+}
+
+TEST_CASE("sdfkit info: hostile OFF files exit 1 with one line naming the file and the line") {
+  // "1000000000 1 0 OFF" on line 1 with a valid file below: the old pre-check took its counts from line 2 and
+  // passed the file on to assimp, which took line 1's counts and zero-filled 12 GB for 10^9 vertices before failing
+  // (under the 1 GB address-space cap below: std::bad_alloc). No OFF file reaches assimp any more.
+  const fs::path dir = test::scratch_dir("core_off_cli");
+  const std::string tri = "0 0 0\n1 0 0\n0 1 0\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"1000000000 1 0 OFF\n3 1 0\n" + tri + "3 0 1 2\n", "line 1: not an OFF file"},
+      {"OFF\n3 9223372036854775807 0\n" + tri + "3 0 1 2\n", "line 2: truncated OFF file"},
+      {"OFF\n3 1 0\n" + tri + "3 0 1 9\n", "line 6: face index out of range"},
+  };
+  for (size_t i = 0; i < cases.size(); ++i) {
+    CAPTURE(cases[i].first);
+    const std::string path = (dir / ("hostile" + std::to_string(i) + ".off")).string();
+    write_text_atomic(path, cases[i].first);
+    const std::string err = (dir / "stderr.txt").string();
+    const int status =
+        std::system(("ulimit -v 1000000; " + std::string(SDFKIT_EXE) + " info " + path + " > /dev/null 2> " + err).c_str());
+    REQUIRE(WIFEXITED(status));  // no signal (segmentation fault, abort)
+    CHECK(WEXITSTATUS(status) == 1);
+    const std::string msg = read_file(err);
+    CHECK(msg.rfind("sdfkit: error: " + path + ": " + cases[i].second, 0) == 0);
+    CHECK(std::count(msg.begin(), msg.end(), '\n') == 1);
+  }
 }

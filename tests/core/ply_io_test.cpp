@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 using namespace sdfkit;
@@ -268,4 +269,69 @@ TEST_CASE("PLY: points and lines are skipped, faces without a surface leave an e
   CHECK(m.num_faces() == 1);
   CHECK(info.skipped_faces == 2);
   CHECK(m.num_vertices() == 4);
+}
+
+TEST_CASE("PLY: list lengths that are not small non-negative integers are IoErrors, never casts of 1e30 or NaN") {
+  const std::string tri = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                          "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                          "0 0 0 1 0 0 0 1 0\n";
+  for (const std::string count : {"1e30", "nan", "inf", "-inf", "2.5", "-1", "1e9"}) {
+    CAPTURE(count);
+    bool io = false;
+    const std::string msg = error_of(tri + count + " 0 1 2\n", &io);
+    CHECK(msg.rfind("bad.ply: bad PLY list length", 0) == 0);
+    CHECK(io);
+  }
+  // The same in a list that is skipped (not the face indices) and in another element.
+  const std::string extra = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                            "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                            "property list uchar float texcoord\nelement edge 1\nproperty list uchar int v\n"
+                            "end_header\n0 0 0 1 0 0 0 1 0\n";
+  CHECK(error_of(extra + "3 0 1 2 1e30 0 0\n2 0 1\n").rfind("bad.ply: bad PLY list length", 0) == 0);
+  CHECK(error_of(extra + "3 0 1 2 0\nnan 0 1\n").rfind("bad.ply: bad PLY list length", 0) == 0);
+  // A NaN face index is out of range (it used to pass every comparison).
+  bool io = true;
+  CHECK(error_of(tri + "3 0 nan 2\n", &io).find("face index out of range") != std::string::npos);
+  CHECK(!io);
+  // An element count beyond a long is a malformed header.
+  CHECK(error_of("ply\nformat ascii 1.0\nelement vertex 99999999999999999999\nproperty float x\nend_header\n")
+            .find("malformed PLY header line") != std::string::npos);
+}
+
+TEST_CASE("PLY: a tiny file declaring 50 million faces fails before allocating for them") {
+  // 3 vertices and 1 face of data, 50,000,000 faces declared. The reader used to reserve 3 x 4 bytes per declared
+  // face (600 MB) before reading the first one. Here the address space is capped 256 MB above what the process
+  // already maps, so such an allocation throws std::bad_alloc instead of the IoError expected.
+  std::string bytes = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 50000000\nproperty list uchar int vertex_indices\nend_header\n";
+  const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  bytes.append(reinterpret_cast<const char*>(v), sizeof v);
+  const int32_t f[3] = {0, 1, 2};
+  bytes.push_back(3);
+  bytes.append(reinterpret_cast<const char*>(f), sizeof f);
+  long pages = 0;
+  {
+    std::FILE* statm = std::fopen("/proc/self/statm", "r");
+    REQUIRE(statm != nullptr);
+    REQUIRE(std::fscanf(statm, "%ld", &pages) == 1);
+    std::fclose(statm);
+  }
+  rlimit old{};
+  REQUIRE(getrlimit(RLIMIT_AS, &old) == 0);
+  rlimit capped = old;
+  const rlim_t cap = static_cast<rlim_t>(pages) * static_cast<rlim_t>(sysconf(_SC_PAGESIZE)) + (rlim_t(256) << 20);
+  if (old.rlim_cur == RLIM_INFINITY || old.rlim_cur > cap) capped.rlim_cur = cap;
+  REQUIRE(setrlimit(RLIMIT_AS, &capped) == 0);
+  std::string msg;
+  try {
+    parse_ply(bytes, "tiny.ply");
+    msg = "no error";
+  } catch (const IoError& e) {
+    msg = e.what();
+  } catch (const std::exception& e) {
+    msg = std::string("not an IoError: ") + e.what();
+  }
+  REQUIRE(setrlimit(RLIMIT_AS, &old) == 0);
+  CHECK(msg.rfind("tiny.ply: truncated binary PLY", 0) == 0);
+  CHECK(msg.find("50000000") != std::string::npos);
 }

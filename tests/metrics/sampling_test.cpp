@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <limits>
+#include <set>
 
 using namespace sdfkit;
 using namespace sdfkit::metrics;
@@ -90,4 +91,38 @@ TEST_CASE("sampling refuses empty, NaN and zero-area input with a message naming
   flat.F << 0, 1, 2;
   CHECK_THROWS_WITH_AS(sample_surface(flat, 10, 1), doctest::Contains("zero area"), InvalidInput);
   CHECK_THROWS_AS(sample_with_replacement(Points(0, 3), 10, 1), InvalidInput);
+}
+
+TEST_CASE("sampling without replacement draws distinct rows of the set, in order, seeded") {
+  Points pts(1000, 3);
+  for (int i = 0; i < 1000; ++i) pts.row(i) << i, 0, 0;
+  const Points a = sample_without_replacement(pts, 600, 5), b = sample_without_replacement(pts, 600, 5);
+  CHECK(a == b);
+  CHECK(a != sample_without_replacement(pts, 600, 6));
+  for (int i = 0; i < 600; ++i) {
+    CHECK(a(i, 0) == std::floor(a(i, 0)));  // a row of the set
+    if (i > 0) CHECK(a(i, 0) > a(i - 1, 0));  // distinct, and in the set's order
+  }
+  CHECK(sample_without_replacement(pts, 1000, 1) == pts);  // all of them: the set itself
+  CHECK_THROWS_AS(sample_without_replacement(pts, 1001, 1), InvalidInput);
+  CHECK_THROWS_AS(sample_without_replacement(pts, 0, 1), InvalidInput);
+}
+
+TEST_CASE("point clouds become n points: as given, subsampled without replacement, or padded keeping every point") {
+  Points pts(100, 3);
+  for (int i = 0; i < 100; ++i) pts.row(i) << i, 2 * i, 0;
+  CloudSampling how = CloudSampling::padded;
+  CHECK(sample_cloud(pts, 100, 3, &how) == pts);
+  CHECK(how == CloudSampling::as_given);
+  const Points sub = sample_cloud(pts, 40, 3, &how);
+  CHECK(how == CloudSampling::subsampled);
+  CHECK(to_string(how) == "subsampled");
+  std::set<double> xs;
+  for (int i = 0; i < 40; ++i) xs.insert(sub(i, 0));
+  CHECK(xs.size() == 40);  // no point twice
+  const Points pad = sample_cloud(pts, 250, 3, &how);
+  CHECK(how == CloudSampling::padded);
+  REQUIRE(pad.rows() == 250);
+  CHECK(pad.topRows(100) == pts);  // every point once, then repeats of points of the set
+  for (int i = 100; i < 250; ++i) CHECK(pad(i, 1) == 2 * pad(i, 0));
 }

@@ -139,6 +139,67 @@ TEST_CASE("every corrupted byte and every truncation is detected") {
   }
 }
 
+namespace {
+/// A checkpoint file with a valid magic, version, sizes and checksum around an arbitrary header text and
+/// `floats` zero floats: only the block table can be wrong, so loading exercises the table checks alone.
+std::string write_forged_checkpoint(const std::string& path, const std::string& header_text, size_t floats) {
+  std::string bytes("SDFKITCK", 8);
+  const uint32_t version = kCheckpointVersion;
+  const uint64_t hlen = header_text.size();
+  bytes.append(reinterpret_cast<const char*>(&version), 4);
+  bytes.append(reinterpret_cast<const char*>(&hlen), 8);
+  bytes += header_text;
+  bytes.append(floats * 4, '\0');
+  const uint64_t sum = fnv1a(bytes.data(), bytes.size());
+  bytes.append(reinterpret_cast<const char*>(&sum), 8);
+  write_text_atomic(path, bytes);
+  return path;
+}
+}  // namespace
+
+TEST_CASE("a forged block table is an IoError naming the file, never a wild read or a JSON exception") {
+  const std::string path = temp_path("forged.ckpt");
+  // Sanity: the forger makes loadable files.
+  const Checkpoint ok =
+      load_checkpoint(write_forged_checkpoint(path, R"({"blocks":[{"name":"a","offset":0,"count":4}]})", 4));
+  REQUIRE(ok.block("a").size() == 4);
+  const std::vector<std::pair<std::string, size_t>> cases = {
+      // offset near 2^64: off + count wraps to a small number and used to pass the bounds check
+      {R"({"blocks":[{"name":"a","offset":18446744073709551615,"count":4},{"name":"b","offset":0,"count":0}]})", 4},
+      {R"({"blocks":[{"name":"a","offset":18446744073709551612,"count":4}]})", 4},
+      {R"({"blocks":[{"name":"a","offset":-4,"count":4}]})", 4},
+      {R"({"blocks":[{"name":"a","offset":0,"count":-4}]})", 0},
+      {R"({"blocks":[{"name":"a","offset":1,"count":4}]})", 4},
+      {R"({"blocks":[{"name":"a","offset":0.5,"count":4}]})", 4},
+      {R"({"blocks":[{"name":"a","offset":"0","count":4}]})", 4},
+      {R"({"blocks":[{"offset":0,"count":4}]})", 4},  // no name
+      {R"({"blocks":[{"name":7,"offset":0,"count":4}]})", 4},
+      {R"({"blocks":[{"name":"a","count":4}]})", 4},
+      {R"({"blocks":[{"name":"a","offset":0}]})", 4},
+      {R"({"blocks":[4]})", 4},
+      {R"({"blocks":{"name":"a"}})", 4},
+      {R"({"blocks":7})", 0},
+      {R"({"no_blocks":[]})", 0},
+      {R"([1,2,3])", 0},
+      {R"("text")", 0},
+      // the counts sum to 2^64 + 4, which wrapped to 4 and matched a 4-float payload
+      {R"({"blocks":[{"name":"a","offset":0,"count":18446744073709551615},{"name":"b","offset":0,"count":5}]})", 4},
+  };
+  for (const auto& [text, floats] : cases) {
+    CAPTURE(text);
+    write_forged_checkpoint(path, text, floats);
+    std::string err = "no error";
+    try {
+      (void)load_checkpoint(path);
+    } catch (const IoError& e) {
+      err = e.what();
+    } catch (const std::exception& e) {
+      err = std::string("not an IoError: ") + e.what();
+    }
+    CHECK(err.rfind(path + ": ", 0) == 0);
+  }
+}
+
 TEST_CASE("a mismatched architecture is a clear error") {
   Tiny t;
   const Checkpoint ck = t.save();

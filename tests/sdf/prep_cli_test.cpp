@@ -90,3 +90,114 @@ TEST_CASE("sdfkit prep: same command twice gives byte-identical outputs, reruns 
         read_file((dir / "a" / "c" / "ring" / "samples.npy").string()));
   fs::remove_all(dir);
 }
+
+namespace {
+/// The files directly in `dir` (not in sub-folders): a prepared shape must never write there.
+std::vector<std::string> loose_files(const fs::path& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (!e.is_directory() && e.path().filename().string().rfind("manifest", 0) != 0)
+      out.push_back(e.path().filename().string());
+  return out;
+}
+}  // namespace
+
+TEST_CASE("sdfkit prep: symlinked meshes keep the id of their link, each in its own folder") {
+  const fs::path dir = test::scratch_dir("prep_cli_links");
+  write_mesh((dir / "src" / "bunny.obj").string(), make_box(Vec3::Constant(-1), Vec3(1, 2, 1)));
+  write_mesh((dir / "src" / "deep" / "teapot.off").string(), make_torus(Vec3::Zero(), 1, 0.3, 32, 16));
+  fs::create_directories(dir / "in" / "cat");
+  fs::create_directories(dir / "in" / "cat2");
+  fs::create_symlink(dir / "src" / "bunny.obj", dir / "in" / "cat" / "bunny.obj");
+  fs::create_symlink(dir / "src" / "deep" / "teapot.off", dir / "in" / "cat" / "pot.off");
+  fs::create_symlink(dir / "src" / "bunny.obj", dir / "in" / "cat2" / "rabbit.obj");  // same target, other id
+  const fs::path out = dir / "out";
+  const test::CliRun r = prep((dir / "in").string() + " -o " + out.string() + kFast);
+  CHECK(r.code == 0);
+  CHECK(r.out.find("3 prepared") != std::string::npos);
+  // The shape id is the link's stem (the link target's path used to give the id "..": files written into out/).
+  CHECK(shape_is_complete((out / "cat" / "bunny").string()));
+  CHECK(shape_is_complete((out / "cat" / "pot").string()));
+  CHECK(shape_is_complete((out / "cat2" / "rabbit").string()));
+  CHECK(loose_files(out).empty());
+  CHECK(loose_files(out / "cat").empty());
+  const Json m = read_json((out / "manifest.json").string());
+  REQUIRE(m["shapes"].size() == 3);
+  for (const auto& s : m["shapes"]) CHECK(s["status"] == "ok");
+}
+
+TEST_CASE("sdfkit prep: symlinked shape and category folders are walked, a link cycle is not") {
+  const fs::path dir = test::scratch_dir("prep_cli_dirlinks");
+  // ShapeNet layout <category>/<id>/models/model_normalized.obj, with the id folder a link to elsewhere.
+  write_mesh((dir / "store" / "s1" / "models" / "model_normalized.obj").string(),
+             make_box(Vec3::Constant(-1), Vec3(1, 2, 1)));
+  write_mesh((dir / "in" / "chairs" / "s2" / "models" / "model_normalized.obj").string(),
+             make_torus(Vec3::Zero(), 1, 0.3, 32, 16));
+  fs::create_directory_symlink(dir / "store" / "s1", dir / "in" / "chairs" / "s1");
+  fs::create_directory_symlink(dir / "in" / "chairs", dir / "in" / "chairs" / "s2" / "loop");  // a cycle
+  // A whole category folder that is a link.
+  write_mesh((dir / "elsewhere" / "tables" / "t.obj").string(), make_box(Vec3::Constant(-1), Vec3(2, 1, 1)));
+  fs::create_directory_symlink(dir / "elsewhere" / "tables", dir / "in" / "tables");
+  const fs::path out = dir / "out";
+  const test::CliRun r = prep((dir / "in").string() + " -o " + out.string() + kFast);
+  CHECK(r.code == 0);
+  CHECK(shape_is_complete((out / "chairs" / "s1").string()));  // behind a link: used to be skipped silently
+  CHECK(shape_is_complete((out / "chairs" / "s2").string()));
+  CHECK(shape_is_complete((out / "tables" / "t").string()));
+  CHECK(read_json((out / "manifest.json").string())["shapes"].size() == 3);
+  CHECK(loose_files(out).empty());
+}
+
+TEST_CASE("sdfkit prep: duplicate shape ids fail as items naming both files, across shards too") {
+  const fs::path dir = test::scratch_dir("prep_cli_dups");
+  write_mesh((dir / "in" / "c" / "x.obj").string(), make_box(Vec3::Constant(-1), Vec3(1, 2, 1)));
+  write_mesh((dir / "in" / "c" / "x.off").string(), make_torus(Vec3::Zero(), 1, 0.3, 32, 16));
+  write_mesh((dir / "in" / "c" / "y.obj").string(), make_box(Vec3::Constant(-1), Vec3(2, 1, 1)));
+  const std::string x_obj = (dir / "in" / "c" / "x.obj").string(), x_off = (dir / "in" / "c" / "x.off").string();
+  const test::CliRun r = prep((dir / "in").string() + " -o " + (dir / "out").string() + kFast);
+  CHECK(r.code == 2);
+  CHECK(r.out.find("2 prepared, 0 already complete, 1 failed of 3") != std::string::npos);
+  CHECK(r.err.find(x_off + ": duplicate shape id 'c/x', already taken by " + x_obj) != std::string::npos);
+  // The folder holds the first file's shape (the box: 12 triangles), not a mix or the torus.
+  CHECK(read_mesh((dir / "out" / "c" / "x" / "gt.obj").string()).num_faces() == 12);
+  // With two shards the two files land in different shards; each shard sees the clash.
+  CHECK(run((dir / "in").string() + " -o " + (dir / "s").string() + kFast + "--shard 0/3") == 0);
+  const test::CliRun s1 = prep((dir / "in").string() + " -o " + (dir / "s").string() + kFast + "--shard 1/3");
+  CHECK(s1.code == 1);  // its only shape failed
+  CHECK(s1.err.find("duplicate shape id 'c/x'") != std::string::npos);
+  CHECK(read_mesh((dir / "s" / "c" / "x" / "gt.obj").string()).num_faces() == 12);
+}
+
+TEST_CASE("sdfkit prep: ids with '..' or '.' are items that fail, never folders outside their place") {
+  const fs::path dir = test::scratch_dir("prep_cli_dotdot");
+  // "...obj" has the stem ".." and "..obj" the stem ".": as ids they name out/<category>/.. and out/<category>/.
+  write_mesh((dir / "in" / "c" / "...obj").string(), make_box(Vec3::Constant(-1), Vec3(1, 2, 1)));
+  write_mesh((dir / "in" / "c" / "..obj").string(), make_box(Vec3::Constant(-1), Vec3(1, 2, 1)));
+  write_mesh((dir / "in" / "c" / "good.obj").string(), make_box(Vec3::Constant(-1), Vec3(2, 1, 1)));
+  const fs::path out = dir / "out";
+  const test::CliRun r = prep((dir / "in").string() + " -o " + out.string() + kFast);
+  CHECK(r.code == 2);
+  CHECK(shape_is_complete((out / "c" / "good").string()));
+  CHECK(loose_files(out).empty());
+  CHECK(loose_files(out / "c").empty());
+  CHECK(r.err.find((dir / "in" / "c" / "...obj").string() +
+                   ": shape id '..' cannot be a folder of its own in the output (it names the parent folder)") !=
+        std::string::npos);
+  CHECK(r.err.find((dir / "in" / "c" / "..obj").string() +
+                   ": shape id '.' cannot be a folder of its own in the output (it names the folder itself)") !=
+        std::string::npos);
+  // A single such mesh: exit 1, nothing written into out/.
+  const test::CliRun one = prep((dir / "in" / "c" / "...obj").string() + " -o " + (dir / "o1").string() + kFast);
+  CHECK(one.code == 1);
+  CHECK(loose_files(dir / "o1").empty());
+  // A list file: a '..' category is refused with the line number, a '..' stem fails as an item.
+  write_text_atomic((dir / "bad_category.lst").string(), "..\tin/c/good.obj\n");
+  const test::CliRun cat = prep((dir / "bad_category.lst").string() + " -o " + (dir / "o2").string() + kFast);
+  CHECK(cat.code == 1);
+  CHECK(cat.err.find("bad_category.lst:1: bad category '..'") != std::string::npos);
+  write_text_atomic((dir / "bad_stem.lst").string(), "c\tin/c/...obj\nc\tin/c/good.obj\n");
+  const test::CliRun stem = prep((dir / "bad_stem.lst").string() + " -o " + (dir / "o3").string() + kFast);
+  CHECK(stem.code == 2);
+  CHECK(loose_files(dir / "o3").empty());
+  CHECK(shape_is_complete((dir / "o3" / "c" / "good").string()));
+}
