@@ -10,7 +10,10 @@ endif()
 # (docs/benchmarks/train.md). Results are deterministic on one machine; across CPUs with other vector units the
 # last bits of network outputs may differ (README, "Build"). SDFKIT_NATIVE=OFF builds portable x86-64 binaries.
 if(SDFKIT_NATIVE)
-  add_compile_options(-march=native)
+  # -ffp-contract=off: the compiler does not fuse a * b + c into one FMA on its own, so scalar code computes what it
+  # says, identically in native and portable builds (exact tests compare vectorised kernels with scalar ones and
+  # grid searches with brute force bit for bit). Eigen's kernels use FMA explicitly and keep their speed.
+  add_compile_options(-march=native -ffp-contract=off)
   if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_LESS 13)
     # GCC 12's own AVX-512 intrinsic headers initialise vectors with themselves (`__m512 __Y = __Y;`) and its
     # -Wmaybe-uninitialized then reports them inside Eigen (GCC bug 105593, fixed in GCC 13).

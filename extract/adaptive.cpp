@@ -56,34 +56,40 @@ void evaluate(const BatchField& field, const Points& points, Eigen::VectorXd& va
 }
 
 /// Fine-grid values stored in 8^3 blocks allocated on first touch: memory follows the evaluated band, not the
-/// full grid. Unevaluated entries hold NaN.
+/// full grid. Unevaluated entries hold NaN. Blocks live in pages of kPageBlocks that never move, so growing the
+/// store copies nothing (a single growing vector spent a tenth of a 257^3 extraction in reallocation copies).
 class BlockStore {
  public:
   static constexpr int kB = 8;
+  static constexpr size_t kBlockSize = size_t(kB) * kB * kB;
+  static constexpr size_t kPageBlocks = 64;
   explicit BlockStore(int points_per_axis) : nb_((points_per_axis + kB - 1) / kB) {
     index_.assign(size_t(nb_) * nb_ * nb_, -1);
   }
   float get(int i, int j, int k) const {
     const int32_t b = index_[block_of(i, j, k)];
-    return b < 0 ? kUnset : data_[size_t(b) * kB * kB * kB + local(i, j, k)];
+    return b < 0 ? kUnset : block(static_cast<size_t>(b))[local(i, j, k)];
   }
   float& ref(int i, int j, int k) {
     int32_t& b = index_[block_of(i, j, k)];
     if (b < 0) {
-      b = static_cast<int32_t>(data_.size() / (kB * kB * kB));
-      data_.resize(data_.size() + kB * kB * kB, kUnset);
+      if (blocks_ % kPageBlocks == 0) pages_.emplace_back(kPageBlocks * kBlockSize, kUnset);
+      b = static_cast<int32_t>(blocks_++);
     }
-    return data_[size_t(b) * kB * kB * kB + local(i, j, k)];
+    return block(static_cast<size_t>(b))[local(i, j, k)];
   }
-  [[nodiscard]] size_t blocks() const { return data_.size() / (kB * kB * kB); }
+  [[nodiscard]] size_t blocks() const { return blocks_; }
   static constexpr float kUnset = std::numeric_limits<float>::quiet_NaN();
 
  private:
+  const float* block(size_t b) const { return pages_[b / kPageBlocks].data() + (b % kPageBlocks) * kBlockSize; }
+  float* block(size_t b) { return pages_[b / kPageBlocks].data() + (b % kPageBlocks) * kBlockSize; }
   size_t block_of(int i, int j, int k) const { return size_t(i / kB) + size_t(nb_) * (size_t(j / kB) + size_t(nb_) * (k / kB)); }
   static int local(int i, int j, int k) { return (i % kB) + kB * ((j % kB) + kB * (k % kB)); }
   int nb_;
+  size_t blocks_ = 0;
   std::vector<int32_t> index_;
-  std::vector<float> data_;
+  std::vector<std::vector<float>> pages_;
 };
 
 /// Queues grid points for evaluation (each at most once) and evaluates them in batches.
