@@ -70,19 +70,25 @@ void check_same_checkpoint(const std::string& a_path, const std::string& b_path)
   CHECK(a.header == b.header);
 }
 
+/// Runs `sdfkit --threads 1 ARGS -o ROOT/one.ckpt` in one process and the same with `-o ROOT/two.ckpt` on 2 MPI
+/// ranks; both must succeed. Returns the MPI run.
+test::CliRun run_one_and_two(const fs::path& root, const std::string& args) {
+  const test::CliRun r1 = test::run_sdfkit("--threads 1 " + args + " -o " + (root / "one.ckpt").string());
+  REQUIRE_MESSAGE(r1.code == 0, r1.err);
+  const test::CliRun r2 = test::run_sdfkit_under(kMpirun, "--threads 1 " + args + " -o " + (root / "two.ckpt").string());
+  REQUIRE_MESSAGE(r2.code == 0, r2.err);
+  return r2;
+}
+
 }  // namespace
 
 TEST_CASE("train sdf on 2 MPI ranks writes the checkpoint of one process, bit for bit") {
   const fs::path root = make_dataset();
-  const std::string common = "train sdf --data " + root.string() +
-                             " --val-split '' --encoder 4,6,8 --global 16 --point-mlp 16,32 --decoder 32,16 "
-                             "--batch 3 --points 64 --steps 4 --val-every 2 --val-shapes 2 --json -o ";
-  const std::string one = (root / "one.ckpt").string(), two = (root / "two.ckpt").string();
-  const test::CliRun r1 = test::run_sdfkit("--threads 1 " + common + one);
-  REQUIRE_MESSAGE(r1.code == 0, r1.err);
-  const test::CliRun r2 = test::run_sdfkit_under(kMpirun, "--threads 1 " + common + two);
-  REQUIRE_MESSAGE(r2.code == 0, r2.err);
-  check_same_checkpoint(one, two);
+  const test::CliRun r2 = run_one_and_two(
+      root, "train sdf --data " + root.string() +
+                " --val-split '' --encoder 4,6,8 --global 16 --point-mlp 16,32 --decoder 32,16 --batch 3 --points 64 "
+                "--steps 4 --val-every 2 --val-shapes 2 --json");
+  check_same_checkpoint((root / "one.ckpt").string(), (root / "two.ckpt").string());
   // Rank 0 alone reports: stdout is one JSON document.
   const Json j = Json::parse(r2.out);
   CHECK(j.at("steps").get<long>() == 4);
@@ -91,14 +97,10 @@ TEST_CASE("train sdf on 2 MPI ranks writes the checkpoint of one process, bit fo
 
 TEST_CASE("train pose on 2 MPI ranks writes the model and the state of one process, bit for bit") {
   const fs::path root = make_dataset();
-  const std::string common = "train pose --data " + root.string() +
-                             " --val-split '' --width 2 --batch 3 --points 32 --steps 4 --val-every 2 --val-items 3 "
-                             "--aug-colour 0.2 -o ";
+  run_one_and_two(root, "train pose --data " + root.string() +
+                            " --val-split '' --width 2 --batch 3 --points 32 --steps 4 --val-every 2 --val-items 3 "
+                            "--aug-colour 0.2");
   const std::string one = (root / "one.ckpt").string(), two = (root / "two.ckpt").string();
-  const test::CliRun r1 = test::run_sdfkit("--threads 1 " + common + one);
-  REQUIRE_MESSAGE(r1.code == 0, r1.err);
-  const test::CliRun r2 = test::run_sdfkit_under(kMpirun, "--threads 1 " + common + two);
-  REQUIRE_MESSAGE(r2.code == 0, r2.err);
   check_same_checkpoint(one + ".train.ckpt", two + ".train.ckpt");
   check_same_checkpoint(one, two);
   fs::remove_all(root);
