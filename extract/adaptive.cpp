@@ -11,6 +11,9 @@
 #include <sstream>
 #include <string>
 
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
 namespace sdfkit {
 namespace {
 
@@ -259,7 +262,7 @@ ExtractResult adaptive_extract(const BatchField& field, const ExtractSettings& s
           ordered.push_back({order_key(p.i, p.j, p.k), p});
         }
   }
-  std::sort(ordered.begin(), ordered.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  tbb::parallel_sort(ordered.begin(), ordered.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   auto inside_grid = [&](int i, int j, int k) { return i >= 0 && j >= 0 && k >= 0 && i <= n && j <= n && k <= n; };
   for (const auto& [key, c] : ordered)
     for (int corner = 0; corner < mc::kCorners; ++corner) {
@@ -270,22 +273,31 @@ ExtractResult adaptive_extract(const BatchField& field, const ExtractSettings& s
   r.level_evaluations.push_back(eval.flush());
   r.evaluations = eval.evaluations();
 
-  mc::McBuilder builder;
-  double sv[mc::kCorners];
-  for (const auto& [key, c] : ordered) {
-    uint32_t pad = 0;
-    for (int corner = 0; corner < mc::kCorners; ++corner) {
-      const int ci = c.i + (corner & 1), cj = c.j + ((corner >> 1) & 1), ck = c.k + ((corner >> 2) & 1);
-      if (inside_grid(ci, cj, ck)) {
-        sv[corner] = double(store.get(ci, cj, ck));
-      } else {
-        pad |= 1u << corner;
-        sv[corner] = mc::kPadValue;
+  // Marching cubes over consecutive chunks of the ordered cells, one builder per chunk, in parallel; appending
+  // the chunks in order gives the serial build's mesh exactly (McBuilder::append), whatever the thread count.
+  constexpr size_t kChunk = 8192;
+  std::vector<mc::McBuilder> chunks((ordered.size() + kChunk - 1) / kChunk);
+  tbb::parallel_for(size_t(0), chunks.size(), [&](size_t ch) {
+    double sv[mc::kCorners];
+    const size_t end = std::min(ordered.size(), (ch + 1) * kChunk);
+    for (size_t n = ch * kChunk; n < end; ++n) {
+      const Cell& c = ordered[n].second;
+      uint32_t pad = 0;
+      for (int corner = 0; corner < mc::kCorners; ++corner) {
+        const int ci = c.i + (corner & 1), cj = c.j + ((corner >> 1) & 1), ck = c.k + ((corner >> 2) & 1);
+        if (inside_grid(ci, cj, ck)) {
+          sv[corner] = double(store.get(ci, cj, ck));
+        } else {
+          pad |= 1u << corner;
+          sv[corner] = mc::kPadValue;
+        }
       }
+      if (!mc::McBuilder::has_crossing(sv, pad)) continue;
+      chunks[ch].add_cell(c.i, c.j, c.k, sv, pad);
     }
-    if (!mc::McBuilder::has_crossing(sv, pad)) continue;
-    builder.add_cell(c.i, c.j, c.k, sv, pad);
-  }
+  });
+  mc::McBuilder builder;
+  for (const mc::McBuilder& chunk : chunks) builder.append(chunk);
   r.mesh = builder.finish(s.box_min, voxel, &r.mc);
   r.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return r;

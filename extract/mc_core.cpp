@@ -322,6 +322,7 @@ int32_t McBuilder::vertex_for_edge(int i, int j, int k, int edge, const double s
   if (inserted) {
     vertices_.push_back(pos);
     snap_.push_back(snap);
+    key_.push_back(key);
     if (snap != kNoSnap) ++stats_.snapped_vertices;
   }
   return id;
@@ -374,9 +375,29 @@ void McBuilder::add_cell(int i, int j, int k, const double s_in[kCorners], uint3
     const int32_t c = static_cast<int32_t>(vertices_.size());
     vertices_.push_back(centre / double(len));
     snap_.push_back(kNoSnap);
+    key_.push_back(kNoSnap);
     ++stats_.centre_vertices;
     for (int m = 0; m < len; ++m) faces_.push_back({c, loop[m], loop[(m + 1) % len]});
   }
+}
+
+void McBuilder::append(const McBuilder& other) {
+  std::vector<int32_t> remap(other.vertices_.size());
+  for (size_t v = 0; v < other.vertices_.size(); ++v) {
+    const int32_t next = static_cast<int32_t>(vertices_.size());
+    bool inserted = true;
+    if (other.key_[v] != kNoSnap) remap[v] = map_.find_or_insert(other.key_[v], next, inserted);
+    if (!inserted) continue;
+    remap[v] = next;
+    vertices_.push_back(other.vertices_[v]);
+    snap_.push_back(other.snap_[v]);
+    key_.push_back(other.key_[v]);
+    if (other.snap_[v] != kNoSnap) ++stats_.snapped_vertices;
+  }
+  faces_.reserve(faces_.size() + other.faces_.size());
+  for (const auto& f : other.faces_) faces_.push_back({remap[f[0]], remap[f[1]], remap[f[2]]});
+  stats_.cells_with_surface += other.stats_.cells_with_surface;
+  stats_.centre_vertices += other.stats_.centre_vertices;
 }
 
 Mesh McBuilder::finish(const Vec3& origin, double voxel, MarchingCubesStats* stats) const {

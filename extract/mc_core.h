@@ -72,12 +72,17 @@ class McBuilder {
   /// The mesh with an arbitrary index -> world map.
   Mesh finish(const std::function<Vec3(const Vec3&)>& index_to_world, MarchingCubesStats* stats = nullptr) const;
   [[nodiscard]] const BuildStats& stats() const { return stats_; }
+  /// Appends the cells another builder received, as if they had been added to this one after its own: vertices
+  /// of edges this builder already has are shared, new ones are numbered in `other`'s creation order. So cells
+  /// cut into consecutive chunks, built in parallel and appended in chunk order give exactly the serial mesh.
+  void append(const McBuilder& other);
 
  private:
   int32_t vertex_for_edge(int i, int j, int k, int edge, const double s[kCorners], uint32_t pad);
   KeyMap map_;
   std::vector<Vec3> vertices_;  // index space
   std::vector<uint64_t> snap_;  // key of the grid point the vertex sits on, or ~0
+  std::vector<uint64_t> key_;   // key of the vertex's grid edge, or ~0 for a loop's centre vertex
   std::vector<std::array<int32_t, 3>> faces_;
   BuildStats stats_;
 };
