@@ -35,6 +35,7 @@ Json SdfNetConfig::to_json() const {
           {"image_size", image_size},
           {"encoder_channels", encoder_channels},
           {"extra_convs", extra_convs},
+          {"first_stride", first_stride},
           {"global_features", global_features},
           {"point_mlp", point_mlp},
           {"decoder", decoder},
@@ -50,6 +51,7 @@ SdfNetConfig SdfNetConfig::from_json(const Json& j) {
     c.image_size = j.at("image_size").get<int>();
     c.encoder_channels = j.at("encoder_channels").get<std::vector<int>>();
     c.extra_convs = j.at("extra_convs").get<int>();
+    c.first_stride = j.value("first_stride", 2);  // absent in models written before the option existed
     c.global_features = j.at("global_features").get<int>();
     c.point_mlp = j.at("point_mlp").get<std::vector<int>>();
     c.decoder = j.at("decoder").get<std::vector<int>>();
@@ -150,6 +152,13 @@ void add_into(TensorT<T>& acc, const TensorT<T>& x) {
 
 }  // namespace
 
+/// Training takes a map's local term W_k sample(map_k, p) in the cheaper of two exact orders: project the map first
+/// (W_k on every pixel, then each point samples H1 values) when the map has fewer pixels than the item has points,
+/// else sample first (each point gathers the map's c_k channels, then one GEMM W_k over the points). The full-
+/// resolution first map has 9x more pixels than a 2048-point item: projecting it would spend a 1x1 convolution and
+/// a 19 MB gradient (zeroed, scattered into, then reduced) on pixels no point touches.
+inline bool sample_first(int64_t points, int64_t pixels) { return points < pixels; }
+
 template <typename T>
 struct SdfNetT<T>::Impl {
   struct Stream {
@@ -183,7 +192,8 @@ struct SdfNetT<T>::Workspace::Data {
   struct StreamActs {
     std::vector<TensorT<T>> pmlp;
     TensorT<T> z, h, gbias;
-    std::vector<TensorT<T>> proj;  // per map: B x H1 x h_k x w_k
+    std::vector<TensorT<T>> proj;  // per map projected first: B x H1 x h_k x w_k
+    std::vector<TensorT<T>> feat;  // per map sampled first: B x N x c_k
     std::vector<TensorT<T>> rest;
   };
   std::vector<StreamActs> streams;
@@ -206,6 +216,7 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
   require(!c.encoder_channels.empty(), "SDF network: need at least one encoder stage");
   require(!c.point_mlp.empty() && !c.decoder.empty(), "SDF network: point MLP and decoder need widths");
   require(c.sdf_scale > 0, "SDF network: sdf_scale must be positive");
+  require(c.first_stride == 1 || c.first_stride == 2, "SDF network: first_stride must be 1 or 2");
   Impl& m = *impl_;
   // Encoder.
   int in_c = 3, size = c.image_size;
@@ -213,14 +224,15 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
     const int out_c = c.encoder_channels[k];
     require(out_c > 0, "SDF network: encoder channels must be positive");
     Chain<T> st;
-    st.template emplace<Conv2d<T>>(Conv2dSettings{in_c, out_c, 3, 2, 1, true});
+    const int stride = k == 0 ? c.first_stride : 2;
+    st.template emplace<Conv2d<T>>(Conv2dSettings{in_c, out_c, 3, stride, 1, true});
     st.template emplace<Activation<T>>(ActivationKind::ReLU);
     if (k > 0)
       for (int e = 0; e < c.extra_convs; ++e) {
         st.template emplace<Conv2d<T>>(Conv2dSettings{out_c, out_c, 3, 1, 1, true});
         st.template emplace<Activation<T>>(ActivationKind::ReLU);
       }
-    size = (size + 2 - 3) / 2 + 1;
+    size = (size + 2 - 3) / stride + 1;
     require(size >= 2, "SDF network: too many encoder stages for the image size");
     m.stages.push_back(std::move(st));
     m.map_channels.push_back(out_c);
@@ -318,8 +330,12 @@ double SdfNetT<T>::train_step_flops(int batch, int points) const {
     if (s.first_g) fwd += s.first_g->forward_flops({1, config_.global_features});
     const int64_t h1 = config_.decoder[0];
     for (int k = 0; k < s.local_maps; ++k) {
-      const int64_t side = m.map_sizes[static_cast<size_t>(k)];
-      fwd += s.local_proj[static_cast<size_t>(k)]->forward_flops({1, m.map_channels[static_cast<size_t>(k)], side, side});
+      const int64_t side = m.map_sizes[static_cast<size_t>(k)], c = m.map_channels[static_cast<size_t>(k)];
+      if (sample_first(P, side * side)) {  // gather c channels, then one GEMM over the points
+        fwd += 8.0 * static_cast<double>(P * c) + 2.0 * static_cast<double>(P * c * h1);
+        continue;
+      }
+      fwd += s.local_proj[static_cast<size_t>(k)]->forward_flops({1, c, side, side});
       fwd += 8.0 * static_cast<double>(P * h1);  // bilinear gather: 4 weighted taps of h1 values
     }
     fwd += s.rest.flops({1, P, h1});
@@ -393,11 +409,22 @@ void SdfNetT<T>::forward(const TensorT<T>& images, const std::vector<Camera>& ca
       for (int64_t i = 0; i < a.z.size(); ++i) a.z[i] += bc[i];
     }
     a.proj.resize(static_cast<size_t>(s.local_maps));
+    a.feat.resize(static_cast<size_t>(s.local_maps));
+    const int64_t h1 = a.z.dim(2);
     for (int k = 0; k < s.local_maps; ++k) {
+      const int64_t side = m.map_sizes[static_cast<size_t>(k)], c = m.map_channels[static_cast<size_t>(k)];
+      if (sample_first(N, side * side)) {
+        bilinear_sample(ws.maps[k], ws.positions, a.feat[k], bs);
+        MatMapT<T>(a.z.ptr(), B * N, h1).noalias() +=
+            ConstMatMapT<T>(a.feat[k].ptr(), B * N, c) * ConstMatMapT<T>(s.local_proj[k]->params(), h1, c).transpose();
+        a.proj[k] = TensorT<T>();
+        continue;
+      }
       s.local_proj[k]->forward(ws.maps[k], a.proj[k]);
       TensorT<T> f;
       bilinear_sample(a.proj[k], ws.positions, f, bs);
       for (int64_t i = 0; i < a.z.size(); ++i) a.z[i] += f[i];
+      a.feat[k] = TensorT<T>();
     }
     s.act.forward(a.z, a.h);
     s.rest.forward(a.h, a.rest);
@@ -431,7 +458,19 @@ void SdfNetT<T>::backward(Workspace& wsp, const TensorT<T>& dpred) const {
       s.first_g->backward(G, a.gbias, dgb, &dGs);
       add_into(dG, dGs);
     }
+    const int64_t h1 = dz.dim(2);
     for (int k = 0; k < s.local_maps; ++k) {
+      if (!a.feat[k].empty()) {  // sampled first: z += F W_k^T
+        const int64_t c = a.feat[k].dim(2);
+        const ConstMatMapT<T> dZ(dz.ptr(), B * N, h1), F(a.feat[k].ptr(), B * N, c);
+        MatMapT<T>(s.local_proj[k]->grads(), h1, c).noalias() += dZ.transpose() * F;
+        TensorT<T> df({B, N, c});
+        MatMapT<T>(df.ptr(), B * N, c).noalias() = dZ * ConstMatMapT<T>(s.local_proj[k]->params(), h1, c);
+        TensorT<T> dmap;
+        bilinear_sample_backward<T>(ws.maps[k], ws.positions, df, &dmap, static_cast<TensorT<T>*>(nullptr), bs);
+        add_into(dmaps[k], dmap);
+        continue;
+      }
       TensorT<T> dproj(a.proj[k].shape, T(0)), dmap;
       bilinear_sample_backward<T>(a.proj[k], ws.positions, dz, &dproj, static_cast<TensorT<T>*>(nullptr), bs);
       s.local_proj[k]->backward(ws.maps[k], a.proj[k], dproj, &dmap);

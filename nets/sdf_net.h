@@ -1,7 +1,8 @@
 // The DISN-style SDF network: image + camera + 3D points -> signed distance (or occupancy logit) per point.
 //
-//   image (3 x S x S, S = 137) -> CNN encoder: one stride-2 stage per entry of encoder_channels, each stage's
-//     output is a feature map (69, 35, 18, 9, 5 px for S = 137) ...
+//   image (3 x S x S, S = 137) -> CNN encoder: one stage per entry of encoder_channels, stride 2 (the first may
+//     be stride 1), each stage's output a feature map (69, 35, 18, 9, 5 px for S = 137; 137, 69, ... with a
+//     stride-1 first stage) ...
 //   ... global feature G = ReLU(Linear(flatten(last map)))
 //   ... local feature L(p) = bilinear samples of the maps at the projection of p through the camera
 //   point feature  P(p) = PointMLP(p), one per stream
@@ -10,7 +11,9 @@
 //   The first decoder layer of each stream is split by input: W_p P(p) + (W_g G + b) + sum_k sample(W_k map_k, p).
 //   W_g G + b is a per-shape bias, and because bilinear sampling is linear, W_k L_k(p) = sample(W_k map_k, p):
 //   the 1x1 convolutions W_k map_k run once per image and each point gathers 4 x H1 values per map instead of
-//   multiplying its full local feature (the same in training and inference).
+//   multiplying its full local feature. Inference always works this way; training takes, per map, the cheaper of
+//   the two exact orders (project then sample when the map has fewer pixels than the item has points, else
+//   sample the map's channels and multiply by W_k).
 //   output = global + local (two-stream), or one decoder on [P, G, L(first maps)] (one-stream), or the global
 //   stream alone (global-only); the binary variant has the two-stream architecture and predicts an occupancy
 //   logit (trained with BCE) instead of 10 x (sdf - 0.003).
@@ -44,6 +47,9 @@ struct SdfNetConfig {
   int image_size = 137;                              ///< input is 3 x image_size x image_size
   std::vector<int> encoder_channels{16, 32, 64, 96, 128};  ///< one stride-2 3x3 conv stage each (+ReLU)
   int extra_convs = 1;          ///< stride-1 3x3 convs added to every stage after the first
+  /// Stride of the first stage: 2 (every stage halves the map), or 1: the first map has the image's resolution,
+  /// as DISN's conv1 stage whose 137 px map its local features sample.
+  int first_stride = 2;
   int global_features = 256;    ///< G
   std::vector<int> point_mlp{32, 64};   ///< 3 -> ... (ReLU after every layer), per stream
   std::vector<int> decoder{96, 48};     ///< hidden widths of each stream's decoder, then -> 1

@@ -7,14 +7,16 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <vector>
 
 using namespace sdfkit;
 
 namespace {
 
-SdfNetConfig tiny_config(SdfVariant v) {
+SdfNetConfig tiny_config(SdfVariant v, int first_stride = 2) {
   SdfNetConfig c;
   c.variant = v;
+  c.first_stride = first_stride;
   c.image_size = 17;
   c.encoder_channels = {2, 3, 3};
   c.extra_convs = 1;
@@ -32,16 +34,27 @@ TensorT<T> random_tensor(const Shape& s, Rng& rng, double lo, double hi) {
   return t;
 }
 
+/// Every variant with the default stride-2 first stage, and the two-stream network with a full-resolution one.
+std::vector<SdfNetConfig> tiny_configs() {
+  std::vector<SdfNetConfig> all;
+  for (SdfVariant v : {SdfVariant::TwoStream, SdfVariant::OneStream, SdfVariant::GlobalOnly, SdfVariant::Binary})
+    all.push_back(tiny_config(v));
+  all.push_back(tiny_config(SdfVariant::TwoStream, 1));
+  return all;
+}
+
 }  // namespace
 
 TEST_CASE("SDF network: finite-difference gradient check of every parameter class, all variants") {
-  for (SdfVariant v : {SdfVariant::TwoStream, SdfVariant::OneStream, SdfVariant::GlobalOnly, SdfVariant::Binary}) {
-    CAPTURE(to_string(v));
-    SdfNetT<double> net(tiny_config(v));
+  for (const SdfNetConfig& config : tiny_configs()) {
+    CAPTURE(config.to_json().dump());
+    SdfNetT<double> net(config);
     net.allocate_grads(true);
     net.init(3);
     Rng rng(11);
-    const int B = 2, N = 6, S = 17;
+    // 30 points: the 9 x 9 first map (17 x 17 with a stride-1 first stage) is sampled first, the smaller maps are
+    // projected first (SdfNet's training takes the cheaper order per map): both orders are checked.
+    const int B = 2, N = 30, S = 17;
     const TensorT<double> images = random_tensor<double>({B, 3, S, S}, rng, 0.0, 1.0);
     const TensorT<double> points = random_tensor<double>({B, N, 3}, rng, -0.6, 0.6);
     const std::vector<Camera> cams = {look_at(30, 20, 2.0, S, S), look_at(-100, 35, 2.2, S, S)};
@@ -94,10 +107,9 @@ TEST_CASE("SDF network: finite-difference gradient check of every parameter clas
 }
 
 TEST_CASE("SDF network: training forward and the per-shape inference path agree, every variant") {
-  for (const SdfVariant variant :
-       {SdfVariant::TwoStream, SdfVariant::OneStream, SdfVariant::GlobalOnly, SdfVariant::Binary}) {
-  CAPTURE(to_string(variant));
-  SdfNetT<double> net(tiny_config(variant));
+  for (const SdfNetConfig& config : tiny_configs()) {
+  CAPTURE(config.to_json().dump());
+  SdfNetT<double> net(config);
   net.init(5);
   Rng rng(2);
   const int N = 40, S = 17;
@@ -211,6 +223,16 @@ TEST_CASE("SDF network configuration round-trips through JSON and rejects bad va
   bad = c.to_json();
   bad.erase("decoder");
   CHECK_THROWS_AS(SdfNetConfig::from_json(bad), IoError);
+  // Models written before first_stride existed load with the stride-2 first stage they were trained with.
+  bad = tiny_config(SdfVariant::TwoStream, 1).to_json();
+  CHECK(SdfNetConfig::from_json(bad).first_stride == 1);
+  bad.erase("first_stride");
+  CHECK(SdfNetConfig::from_json(bad).first_stride == 2);
+  CHECK(SdfNetT<float>{tiny_config(SdfVariant::TwoStream, 1)}.map_sizes() == std::vector<int>{17, 9, 5});
+  CHECK(SdfNetT<float>{tiny_config(SdfVariant::TwoStream, 2)}.map_sizes() == std::vector<int>{9, 5, 3});
+  c.first_stride = 3;
+  CHECK_THROWS_AS(SdfNetT<float>{c}, InvalidInput);
+  c.first_stride = 2;
   c.one_stream_maps = 7;
   CHECK_THROWS_AS(SdfNetT<float>{c}, InvalidInput);
 }
