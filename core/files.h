@@ -18,6 +18,9 @@ using Json = nlohmann::json;
 /// created. Throws IoError naming the path.
 void write_file_atomic(const std::string& path, const std::function<void(std::ostream&)>& write);
 void write_text_atomic(const std::string& path, const std::string& text);
+/// Removes the temporary files `path + ".tmp.<pid>"` that write_file_atomic left behind when its process was killed
+/// (the pid no longer runs on this machine); a live writer's file is left alone. Returns how many were removed.
+int remove_stale_temporaries(const std::string& path);
 /// Whole file as bytes; IoError naming the path when it cannot be read.
 std::string read_file(const std::string& path);
 

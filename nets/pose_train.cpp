@@ -216,6 +216,9 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   result.model = s.out;
   result.csv = s.out + ".csv";
   result.plot = s.out + ".svg";
+  // Temporary files of a run killed while writing (core/files.h): nobody else will remove them.
+  if (Comm::world().is_root())
+    for (const std::string& path : {state_path, s.out, result.csv, result.plot}) remove_stale_temporaries(path);
   long step = 0;
   double prior_seconds = 0;
   Json curve = Json::array();

@@ -232,6 +232,9 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   res.model = st.out;
   res.csv = stem_path(st.out) + ".loss.csv";
   res.plot = stem_path(st.out) + ".loss.svg";
+  // Temporary files of a run killed while writing (core/files.h): nobody else will remove them.
+  if (Comm::world().is_root())
+    for (const std::string& path : {st.out, res.csv, res.plot}) remove_stale_temporaries(path);
   const std::vector<std::string> header = {"step", "train_loss", "lr", "seconds", "val_loss", "val_sign_accuracy",
                                            "val_sample_iou"};
   std::vector<std::vector<double>> rows;
@@ -283,9 +286,11 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     ck.header["training"] = tr;
     ck.set_block("params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
     ck.put_optimizer(opt);
-    save_checkpoint(st.out, ck);
+    // The curves first, the checkpoint last: a run killed in between resumes from the previous checkpoint and
+    // drops the curve rows past it, so curve and checkpoint always agree.
     write_text_atomic(res.csv, format_csv(header, rows));
     write_loss_plot_svg(res.plot, rows, header, {1, 4}, "SDF network: training and validation loss");
+    save_checkpoint(st.out, ck);
   };
 
   // Data-parallel steps (nets/comm.h): this rank's items [i0, i1) of every batch, one replica of the network per

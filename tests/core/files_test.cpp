@@ -5,7 +5,12 @@
 
 #include <doctest/doctest.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <filesystem>
+#include <string>
+#include <vector>
 
 using namespace sdfkit;
 namespace fs = std::filesystem;
@@ -94,6 +99,31 @@ TEST_CASE("atomic write leaves no file behind when the writer throws") {
   }));
   CHECK_FALSE(fs::exists(path));
   CHECK(fs::is_empty(dir));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("stale temporaries of killed writers are removed, live writers' and other files are kept") {
+  const fs::path dir = test::scratch_dir("core_stale_tmp");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  // A pid that surely ran and ended: a child that exits at once, reaped.
+  const pid_t child = ::fork();
+  REQUIRE(child >= 0);
+  if (child == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  const std::string dead = std::to_string(child), live = std::to_string(::getppid());
+  const std::string model = (dir / "m.ckpt").string();
+  for (const std::string& name : std::vector<std::string>{"m.ckpt", "m.ckpt.tmp." + dead, "m.ckpt.tmp." + live, "m.ckpt.tmp.x1",
+                                 "m.ckpt.tmp.", "other.ckpt.tmp." + dead, "m.ckpt.tmp." + dead + ".bak"})
+    write_text_atomic((dir / name).string(), "x");
+  CHECK(remove_stale_temporaries(model) == 1);
+  CHECK_FALSE(fs::exists(dir / ("m.ckpt.tmp." + dead)));
+  for (const std::string& name : std::vector<std::string>{"m.ckpt", "m.ckpt.tmp." + live, "m.ckpt.tmp.x1", "m.ckpt.tmp.",
+                                 "other.ckpt.tmp." + dead, "m.ckpt.tmp." + dead + ".bak"})
+    CHECK(fs::exists(dir / name));
+  CHECK(remove_stale_temporaries(model) == 0);
+  CHECK(remove_stale_temporaries((dir / "missing" / "m.ckpt").string()) == 0);  // no folder: nothing to do
   fs::remove_all(dir);
 }
 

@@ -12,7 +12,14 @@
 #include <doctest/doctest.h>
 #include <tbb/global_control.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
 
 using namespace sdfkit;
 namespace fs = std::filesystem;
@@ -163,6 +170,48 @@ TEST_CASE("resumed training continues bit for bit") {
   st.resume = true;
   st.net.decoder = {16, 8};
   CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  fs::remove_all(root);
+}
+
+TEST_CASE("a run killed while saving resumes from its checkpoint, drops later curve rows, removes temporaries") {
+  const fs::path root = make_torus_dataset("sdf_train_killed");
+  SdfTrainSettings st = tiny_run(root, SdfVariant::TwoStream);
+  st.steps = 6;
+  st.out = (root / "straight.ckpt").string();
+  train_sdf(st);
+  // The killed run: saved at step 3; then killed while saving step 6, after the curve was written (curves go
+  // first) and while the checkpoint's temporary was being written.
+  st.steps = 3;
+  st.out = (root / "killed.ckpt").string();
+  const SdfTrainResult first = train_sdf(st);
+  {
+    std::ofstream csv(first.csv, std::ios::app);
+    csv << "6,99,0.001,1,99,0,0\n";
+  }
+  const pid_t child = ::fork();
+  REQUIRE(child >= 0);
+  if (child == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  const std::string tmp = st.out + ".tmp." + std::to_string(child);
+  { std::ofstream(tmp) << "half a checkpoint"; }
+  st.steps = 6;
+  st.resume = true;
+  const SdfTrainResult r = train_sdf(st);
+  CHECK(r.start_step == 3);
+  CHECK_FALSE(fs::exists(tmp));
+  CHECK(params(root, "straight.ckpt") == params(root, "killed.ckpt"));
+  const std::string curve = read_file(r.csv);
+  CHECK(curve.find("\n6,99,") == std::string::npos);
+  std::vector<double> steps;  // first column of every row after the header
+  std::istringstream lines(curve);
+  std::string line;
+  std::getline(lines, line);
+  while (std::getline(lines, line))
+    if (!line.empty()) steps.push_back(std::stod(line.substr(0, line.find(','))));
+  REQUIRE(!steps.empty());
+  CHECK(steps.back() == 6.0);
+  for (size_t i = 1; i < steps.size(); ++i) CHECK(steps[i] > steps[i - 1]);  // no step twice
   fs::remove_all(root);
 }
 
