@@ -42,11 +42,19 @@ std::vector<TrainConfig> all_configs() {
   std::vector<TrainConfig> out;
   TrainConfig shipped;
   shipped.name = "shipped";
-  shipped.description = "train sdf defaults (the shipped model): encoder 16,32,64,96,128, decoder 96,48, 8 x 2048";
+  shipped.description =
+      "train sdf defaults (the shipped model): encoder 16,32,64,128,192,256 from a full-resolution first map, "
+      "global 512, point MLP 64,128, decoder 256,128, 8 x 2048";
+  shipped.sdf.encoder_channels = {16, 32, 64, 128, 192, 256};
+  shipped.sdf.first_stride = 1;
   shipped.sdf.extra_convs = 0;
+  shipped.sdf.global_features = 512;
+  shipped.sdf.point_mlp = {64, 128};
+  shipped.sdf.decoder = {256, 128};
   out.push_back(shipped);
   TrainConfig disn = shipped;
   disn.name = "disn";
+  disn.sdf.first_stride = 2;
   disn.description = "DISN-size: encoder 32,64,128,256,256, global 512, point MLP 64,256,512, decoder 512,256, 8 x 2048";
   disn.sdf.encoder_channels = {32, 64, 128, 256, 256};
   disn.sdf.global_features = 512;

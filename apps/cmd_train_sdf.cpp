@@ -46,15 +46,21 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   SdfTrainSettings& s = o->s;
-  // The command's defaults are the recipe of the shipped model (docs/results/sdf.md), which trains in under an
-  // hour on 2 cores: larger steps (lr 5e-4 decayed to 1e-5) and 2048 points per item let 6600 steps do what
-  // DISN's 1e-4 needs far more steps for, and the encoder without extra stride-1 convolutions is ~2x cheaper.
-  s.steps = 6600;
+  // The command's defaults are the recipe of the shipped model (docs/results/sdf.md, scripts/train_models): the
+  // two-stream network with a full-resolution first map for the local features (DISN samples its 137 px conv1
+  // stage), decoders 256,128 and a 512-d global feature; 19,000 steps of 8 items x 2048 points, Adam lr 5e-4 on a
+  // cosine that ends at 1e-5 with the last step. 0.27 s per step on 2 cores (data/models/sdf.md).
+  s.steps = 19000;
   s.points = 2048;
   s.lr = 5e-4;
   s.lr_min = 1e-5;
-  s.lr_steps = 13000;  // stop mid-decay (lr 2.5e-4 at step 6600): measured better than a full decay
+  s.lr_steps = 0;  // the cosine ends at --steps
+  s.net.encoder_channels = {16, 32, 64, 128, 192, 256};
+  s.net.first_stride = 1;
   s.net.extra_convs = 0;
+  s.net.global_features = 512;
+  s.net.point_mlp = {64, 128};
+  s.net.decoder = {256, 128};
   o->encoder = join(s.net.encoder_channels);
   o->point_mlp = join(s.net.point_mlp);
   o->decoder = join(s.net.decoder);
@@ -75,9 +81,8 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
                  "cosine decay of the learning rate to this value at the end of the decay (= --lr: constant)")
       ->capture_default_str();
   app.add_option("--lr-steps", s.lr_steps,
-                 "steps over which the cosine decay runs (0 = --steps; larger: training stops before the decay ends; "
-                 "the default stops at step 6600 of 13000 as the shipped model did: measured better than a full "
-                 "decay)")
+                 "steps over which the cosine decay runs (0 = --steps; larger: training stops before the decay ends, "
+                 "e.g. a first stage of a longer schedule)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--init", s.init,
@@ -101,7 +106,13 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   app.add_flag("--resume", s.resume, "continue from MODEL when it exists (same settings and seed; bit-exact continuation)");
   app.add_option("--minutes", o->minutes, "stop after this many minutes of training, saving the model (0 = no limit)")
       ->capture_default_str();
-  app.add_option("--encoder", o->encoder, "encoder stage channels (one stride-2 stage each)")->capture_default_str();
+  app.add_option("--encoder", o->encoder, "encoder stage channels (one stride-2 stage each; see --first-stride)")
+      ->capture_default_str();
+  app.add_option("--first-stride", s.net.first_stride,
+                 "stride of the first encoder stage: 2, or 1 for a first map at the image's resolution (DISN samples "
+                 "local features from its full-resolution conv1 stage)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({1, 2}));
   app.add_option("--extra-convs", s.net.extra_convs, "stride-1 convolutions added to every stage after the first")
       ->capture_default_str();
   app.add_option("--global", s.net.global_features, "global feature size")->capture_default_str();

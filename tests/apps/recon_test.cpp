@@ -50,9 +50,9 @@ bool have_models() {
 }  // namespace
 
 // Issue 8: recon of a shipped example reaches IoU > 0.5 against its GT with the shipped models (a check of the
-// model, not only of the code path), and the true camera is at least as good. Measured with the models of
-// 2026-11-21: 0.567 with the true camera, 0.540 with the estimated one (session-3 pose model, d2D 13.5 px; the
-// session-2 pose model gave 0.490; docs/results/pose.md). Both cameras are asserted above 0.5.
+// model, not only of the code path), and the true camera is at least as good. Measured with the shipped models
+// (data/models/sdf.md, pose.md): 0.698 with the true camera, 0.692 with the estimated one. Both cameras are
+// asserted above 0.5.
 TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with the true camera, closed mesh") {
   REQUIRE_MESSAGE(have_models(), "the shipped models data/models/sdf.ckpt and pose.ckpt are missing");
   const fs::path dir = test::scratch_dir("recon_cli") / "example";
@@ -76,7 +76,7 @@ TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with th
   CHECK(iou_cam > 0.5);
   // "At least as good", up to 0.02 of IoU: the two runs differ only by the camera.
   CHECK(iou_cam >= iou_est - 0.02);
-  CHECK(iou_est > 0.5);  // issue 8's goal, with the session-3 pose model (0.540; 0.490 with the session-2 one)
+  CHECK(iou_est > 0.5);  // issue 8's goal
 }
 
 TEST_CASE("recon refuses corrupt, empty and background-only images with one clear line and exit 1") {
