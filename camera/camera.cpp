@@ -84,6 +84,15 @@ Camera look_at(double azimuth_deg, double elevation_deg, double distance, int wi
 
 Vec3 camera_center(const Camera& cam) { return -cam.R.transpose() * cam.t; }
 
+Camera turn_about_vertical(const Camera& cam, double degrees) {
+  const double a = degrees * kDeg, c = std::cos(a), s = std::sin(a);
+  Mat3 Ry;
+  Ry << c, 0, s, 0, 1, 0, -s, 0, c;
+  Camera out = cam;
+  out.R = cam.R * Ry.transpose();
+  return out;
+}
+
 LookAtParams look_at_params(const Camera& cam) {
   const Vec3 C = camera_center(cam);
   LookAtParams p;

@@ -52,6 +52,11 @@ LookAtParams look_at_params(const Camera& cam);
 /// Camera centre in the object frame: C = -R^T t.
 Vec3 camera_center(const Camera& cam);
 
+/// The camera moved about the object frame's +y axis so that its centre's azimuth grows by `degrees`, seeing the
+/// object turned by -degrees: R' = R Ry(degrees)^T, t' = t (Ry = rotation about +y, z towards x). For a look-at
+/// camera, turn_about_vertical(look_at(a, e, d), x) = look_at(a + x, e, d).
+Camera turn_about_vertical(const Camera& cam, double degrees);
+
 /// x_cam = R x + t.
 inline Vec3 to_camera(const Camera& cam, const Vec3& x) { return cam.R * x + cam.t; }
 

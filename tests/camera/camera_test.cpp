@@ -76,6 +76,22 @@ TEST_CASE("camera: look_at_params inverts look_at") {
   CHECK(pole.elevation_deg == doctest::Approx(90));
 }
 
+TEST_CASE("camera: turn_about_vertical moves a look-at camera's azimuth and sees the object turned back") {
+  Rng rng(17);
+  for (int k = 0; k < 50; ++k) {
+    const double az = rng.uniform(0, 360), el = rng.uniform(-60, 60), d = rng.uniform(1, 4), x = rng.uniform(-400, 400);
+    const Camera turned = turn_about_vertical(look_at(az, el, d), x);
+    const Camera expect = look_at(az + x, el, d);
+    CHECK((turned.R - expect.R).norm() < 1e-12);
+    CHECK((turned.t - expect.t).norm() < 1e-12);
+    // A point turned by x about +y is seen by the turned camera where the original camera saw the point.
+    const Vec3 p = random_point(rng);
+    const double a = x * kPi / 180;
+    const Vec3 q(std::cos(a) * p.x() + std::sin(a) * p.z(), p.y(), -std::sin(a) * p.x() + std::cos(a) * p.z());
+    CHECK((to_camera(turned, q) - to_camera(look_at(az, el, d), p)).norm() < 1e-12);
+  }
+}
+
 TEST_CASE("camera: projection Jacobians against finite differences") {
   Rng rng(8);
   for (int k = 0; k < 30; ++k) {
