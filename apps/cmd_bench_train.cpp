@@ -63,8 +63,9 @@ std::vector<TrainConfig> all_configs() {
   out.push_back(disn);
   TrainConfig pose;
   pose.name = "pose";
-  pose.description = "train pose defaults: width 16, feature 256, batch 16";
+  pose.description = "train pose defaults: width 32, feature 256, azimuth head 36 bins, batch 16";
   pose.pose = true;
+  pose.pose_net = shipped_pose_recipe().net;
   pose.batch = 16;
   pose.points = 512;
   out.push_back(pose);
@@ -167,6 +168,7 @@ Run time_run(const TrainConfig& c, const std::string& data, const std::string& o
     s.val_every = static_cast<int>(total);
     s.val_items = 8;
     s.net = c.pose_net;
+    s.azimuth_weight = shipped_pose_recipe().azimuth_weight;
     t_last = bench::Clock::now();
     c_last = bench::process_cpu_seconds();
     train_pose(s, [&](const PoseTrainEvent& e) { on_step(e.step); });

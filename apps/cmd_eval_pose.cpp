@@ -21,6 +21,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     PoseEvalSettings e;
     bool json = false, symmetry = false;
     double symmetry_tol = 0.01;
+    double flip_check = kDefaultFlipCheck;
   };
   auto o = std::make_shared<Opts>();
   app.add_option("--model", o->model, "pose model written by `sdfkit train pose`")->required();
@@ -41,10 +42,16 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                  "(object units) of gt.obj")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--flip-check", o->flip_check,
+                 "models with an azimuth head: turn the regressed camera to another azimuth when the head gives it "
+                 "more than this many times the probability mass of the regressed one (0 = off: the 6D head alone)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--json", o->json, "print JSON (overall + per category) instead of text");
   return [o] {
     const auto t0 = std::chrono::steady_clock::now();
     auto net = load_pose_model(o->model);
+    net->set_flip_check(o->flip_check);
     DatasetSettings ds;
     ds.root = o->data;
     ds.split = o->split;
@@ -72,7 +79,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o->json) {
       auto scores = [&](const PoseScores& v) {
-        Json j = {{"d3d", v.d3d}, {"d2d", v.d2d}, {"loss", v.loss}, {"items", v.items}};
+        Json j = {{"d3d", v.d3d}, {"d2d", v.d2d}, {"loss", v.loss}, {"items", v.items}, {"large_error_share", v.large}};
         if (o->symmetry) {
           j["d3d_sym"] = v.d3d_sym;
           j["d2d_sym"] = v.d2d_sym;
@@ -83,6 +90,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       for (const auto& [k, v] : per) cats[k] = scores(v);
       Json j = scores(all);
       j.update({{"model", o->model}, {"data", o->data}, {"split", o->split}, {"shapes", data.size()},
+                {"azimuth_bins", net->settings().azimuth_bins}, {"flip_check", o->flip_check},
                 {"points", o->e.points}, {"seconds", seconds}, {"per_category", cats}});
       if (o->symmetry) {
         j["symmetry_tol"] = o->symmetry_tol;
@@ -91,11 +99,11 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       std::cout << j.dump(2) << '\n';
     } else {
       auto row = [&](const std::string& name, const PoseScores& v) {
-        std::printf("%-14s %8ld %10.4f %10.3f", name.c_str(), v.items, v.d3d, v.d2d);
+        std::printf("%-14s %8ld %10.4f %10.3f %9.1f%%", name.c_str(), v.items, v.d3d, v.d2d, 100.0 * v.large);
         if (o->symmetry) std::printf(" %10.4f %10.3f", v.d3d_sym, v.d2d_sym);
         std::printf("\n");
       };
-      std::printf("%-14s %8s %10s %10s", "category", "items", "d3D", "d2D(px)");
+      std::printf("%-14s %8s %10s %10s %10s", "category", "items", "d3D", "d2D(px)", ">10px");
       if (o->symmetry) std::printf(" %10s %10s", "d3D-sym", "d2D-sym");
       std::printf("\n");
       for (const auto& [k, v] : per) row(k, v);

@@ -3,7 +3,10 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "nets/comm.h"
+#include "core/mesh_io.h"
 #include "nets/pose_train.h"
+#include "sdf/prepare.h"
+#include "sdf/symmetry.h"
 
 #include <cstdio>
 #include <iostream>
@@ -15,14 +18,16 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   struct Opts {
     PoseTrainSettings s;
     double minutes = 0;
+    double symmetry_tol = 0.01;
     bool json = false;
   };
   auto o = std::make_shared<Opts>();
   PoseTrainSettings& s = o->s;
+  s = shipped_pose_recipe();  // the defaults are the shipped model's recipe (docs/results/pose.md)
   app.add_option("--data", s.data, "prepared dataset folder (sdfkit prep ... --views V)")->required();
   app.add_option("-o,--out", s.out,
-                 "model file to write; MODEL.csv (loss curve), MODEL.svg (plot) and MODEL.train.ckpt (resumable "
-                 "training state) are written beside it")
+                 "model file to write; MODEL_STEM.loss.csv (loss curve), MODEL_STEM.loss.svg (plot) and "
+                 "MODEL.train.ckpt (resumable training state) are written beside it")
       ->required();
   app.add_option("--split", s.train_split,
                  "training split: a name (DATA/NAME.lst or DATA/../NAME.lst) or a list file of <category>/<shape>")
@@ -49,6 +54,22 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   app.add_option("--width", s.net.width, "channels of the first convolution (later: 2x, 4x, 8x)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--feature", s.net.feature, "size of the shared feature the heads read")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--azimuth-bins", s.net.azimuth_bins,
+                 "bins of the azimuth classifier head (0 = no head, DISN's network); at inference it checks the "
+                 "regressed rotation for flips")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 360));
+  app.add_option("--azimuth-weight", s.azimuth_weight, "weight of the azimuth head's cross-entropy in the loss")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--symmetry-tol", o->symmetry_tol,
+                 "take L_cam modulo each training shape's quarter and half turns about the vertical axis that map its "
+                 "gt.obj onto itself within this distance (object units); 0 = plain L_cam")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--distance-min", o->s.net.distance_min, "smallest predictable camera distance")
       ->capture_default_str();
   app.add_option("--distance-max", o->s.net.distance_max, "largest predictable camera distance")->capture_default_str();
@@ -78,6 +99,24 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   return [o] {
     PoseTrainSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
+    if (s.net.azimuth_bins > 0 && s.net.azimuth_bins < 4)
+      throw InvalidInput("--azimuth-bins must be 0 (no head) or at least 4");
+    if (s.azimuth_weight > 0 && s.net.azimuth_bins == 0)
+      throw InvalidInput("--azimuth-weight needs --azimuth-bins > 0");
+    if (o->symmetry_tol > 0) {
+      const double tol = o->symmetry_tol;
+      s.symmetries = [tol](const ShapeEntry& shape) {
+        const std::string gt = ShapeFiles(shape.dir).gt;
+        try {
+          return vertical_symmetry_rotations(read_mesh(gt), tol);
+        } catch (const std::exception& e) {
+          throw IoError(gt + ": cannot find the shape's symmetries (" + e.what() + "); --symmetry-tol 0 trains without");
+        }
+      };
+      char tag[64];
+      std::snprintf(tag, sizeof tag, "vertical turns of gt.obj, tol %g", tol);
+      s.symmetry_tag = tag;
+    }
     // In an MPI job (mpirun/srun, nets/comm.h) every rank trains; rank 0 alone reports and writes files.
     const bool root = Comm::world().is_root();
     if (root && Comm::world().size() > 1)
@@ -99,6 +138,8 @@ std::function<int()> setup_train_pose(CLI::App& app) {
                     {"plot", r.plot},         {"steps", r.steps},
                     {"start_step", r.start_step}, {"seconds", r.seconds},
                     {"total_seconds", r.total_seconds},
+                    {"symmetric_shapes", r.symmetric_shapes},
+                    {"train_azimuth_ce", r.train_azimuth_ce},
                     {"val", {{"loss", r.val.loss}, {"d3d", r.val.d3d}, {"d2d", r.val.d2d}, {"items", r.val.items}}}};
     if (o->json)
       std::cout << j.dump(2) << '\n';

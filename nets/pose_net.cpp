@@ -2,16 +2,20 @@
 
 #include "camera/rotation6d.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace sdfkit {
 
 Json PoseNetSettings::to_json() const {
-  return {{"width", width},
-          {"image_size", image_size},
-          {"feature", feature},
-          {"distance_min", distance_min},
-          {"distance_max", distance_max}};
+  Json j = {{"width", width},
+            {"image_size", image_size},
+            {"feature", feature},
+            {"distance_min", distance_min},
+            {"distance_max", distance_max}};
+  if (azimuth_bins > 0) j["azimuth_bins"] = azimuth_bins;  // absent in models without the head
+  return j;
 }
 
 PoseNetSettings PoseNetSettings::from_json(const Json& j) {
@@ -22,6 +26,7 @@ PoseNetSettings PoseNetSettings::from_json(const Json& j) {
     s.feature = j.at("feature").get<int>();
     s.distance_min = j.at("distance_min").get<double>();
     s.distance_max = j.at("distance_max").get<double>();
+    s.azimuth_bins = j.value("azimuth_bins", 0);
   } catch (const Json::exception& e) {
     throw IoError(std::string("pose network settings: malformed (") + e.what() + ")");
   }
@@ -40,6 +45,8 @@ void conv_block(Sequential<float>& s, int in, int out, int k, int stride) {
 PoseNet::PoseNet(const PoseNetSettings& settings, bool with_grads) : s_(settings) {
   require(s_.width > 0 && s_.feature > 0 && s_.image_size >= 32, "pose net: width, feature > 0 and image >= 32");
   require(s_.distance_min > 0 && s_.distance_max > s_.distance_min, "pose net: need 0 < distance_min < distance_max");
+  require(s_.azimuth_bins == 0 || (s_.azimuth_bins >= 4 && s_.azimuth_bins <= 360),
+          "pose net: azimuth bins must be 0 (no head) or 4..360");
   const int w = s_.width;
   conv_block(trunk_, 3, w, 5, 2);
   conv_block(trunk_, w, 2 * w, 3, 2);
@@ -60,16 +67,29 @@ PoseNet::PoseNet(const PoseNetSettings& settings, bool with_grads) : s_(settings
   store_.add(trunk_);
   store_.add(rot_head_);
   store_.add(dist_head_);
+  if (s_.azimuth_bins > 0) {
+    az_head_.emplace<Linear<float>>(s_.feature, 128);
+    az_head_.add(leaky_relu<float>(kSlope));
+    az_head_.emplace<Linear<float>>(128, s_.azimuth_bins);
+    store_.add(az_head_);
+  }
   store_.allocate(with_grads);
   trunk_.training(with_grads);
   rot_head_.training(with_grads);
   dist_head_.training(with_grads);
+  az_head_.training(with_grads);
+}
+
+void PoseNet::set_flip_check(double margin) {
+  require(std::isfinite(margin) && margin >= 0, "pose net: the flip-check margin must be >= 0 (0 = off)");
+  flip_check_ = margin;
 }
 
 double PoseNet::train_step_flops(int batch) const {
   const Shape in{batch, 3, s_.image_size, s_.image_size};
   const Shape feat = trunk_.output_shape(in);
-  const double fwd = trunk_.forward_flops(in) + rot_head_.forward_flops(feat) + dist_head_.forward_flops(feat);
+  double fwd = trunk_.forward_flops(in) + rot_head_.forward_flops(feat) + dist_head_.forward_flops(feat);
+  if (s_.azimuth_bins > 0) fwd += az_head_.forward_flops(feat);
   return 3.0 * fwd - trunk_[0].forward_flops(in);  // the image gradient of the first convolution is not computed
 }
 
@@ -85,12 +105,14 @@ void PoseNet::run(const MatrixXfR& images, bool training) {
   trunk_.training(training);
   rot_head_.training(training);
   dist_head_.training(training);
+  az_head_.training(training);
   x_.resize({images.rows(), 3, S, S});
   // Centre the [0, 1] input.
   Eigen::Map<MatrixXfR>(x_.ptr(), images.rows(), images.cols()) = images.array() - 0.5f;
   trunk_.forward(x_, feat_);
   rot_head_.forward(feat_, rot_);
   dist_head_.forward(feat_, dist_);
+  if (s_.azimuth_bins > 0) az_head_.forward(feat_, az_);
 }
 
 Camera PoseNet::camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z) const {
@@ -107,11 +129,22 @@ Camera PoseNet::camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z
 PosePrediction PoseNet::predict(const MatrixXfR& images) {
   run(images, false);
   PosePrediction p;
+  const int K = s_.azimuth_bins;
   for (Eigen::Index b = 0; b < images.rows(); ++b) {
     Eigen::Matrix<float, 6, 1> r;
     for (int k = 0; k < 6; ++k) r[k] = rot_[b * 6 + k];
     p.rot6d.push_back(r);
-    p.cameras.push_back(camera_from_outputs(r, dist_[b]));
+    const Camera cam = camera_from_outputs(r, dist_[b]);
+    p.regressed.push_back(cam);
+    double shift = 0;
+    if (K > 0) {
+      std::vector<double> prob(static_cast<size_t>(K));
+      softmax_cross_entropy(az_.ptr() + b * K, nullptr, K, nullptr, prob.data());
+      p.azimuth_prob.emplace_back(prob.begin(), prob.end());
+      shift = azimuth_flip_shift(p.azimuth_prob.back(), camera_azimuth(cam), flip_check_);
+    }
+    p.azimuth_shift.push_back(shift);
+    p.cameras.push_back(shift == 0 ? cam : turn_about_vertical(cam, shift));
   }
   return p;
 }
@@ -138,33 +171,151 @@ double pose_point_loss(const Eigen::Matrix3d& R, double d, const PointsF& points
   return s * inv;
 }
 
+double pose_point_loss_modulo(const Eigen::Matrix3d& R, double d, const PointsF& points, const Camera& truth,
+                              const std::vector<Mat3>& symmetries, Eigen::Matrix3d* dR, double* dd, int* twin) {
+  double best = pose_point_loss(R, d, points, truth, dR, dd);
+  int arg = 0;
+  for (size_t k = 0; k < symmetries.size(); ++k) {
+    Camera t = truth;
+    t.R = truth.R * symmetries[k];
+    Eigen::Matrix3d gR;
+    double gd = 0;
+    const double l = pose_point_loss(R, d, points, t, dR ? &gR : nullptr, dd ? &gd : nullptr);
+    if (l < best) {
+      best = l;
+      arg = static_cast<int>(k) + 1;
+      if (dR) *dR = gR;
+      if (dd) *dd = gd;
+    }
+  }
+  if (twin) *twin = arg;
+  return best;
+}
+
+double camera_azimuth(const Camera& cam) { return look_at_params(cam).azimuth_deg; }
+
+void add_azimuth_target(double azimuth_deg, int bins, double weight, float* target) {
+  require(bins > 0 && std::isfinite(azimuth_deg), "azimuth target: need bins > 0 and a finite azimuth");
+  const double u = azimuth_deg / (360.0 / bins);
+  const double lo = std::floor(u), f = u - lo;
+  const int j = static_cast<int>(((static_cast<long>(lo) % bins) + bins) % bins);
+  target[j] += static_cast<float>(weight * (1.0 - f));
+  target[(j + 1) % bins] += static_cast<float>(weight * f);
+}
+
+double softmax_cross_entropy(const float* logits, const float* target, int bins, double* dz, double* prob) {
+  double m = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k < bins; ++k) m = std::max(m, static_cast<double>(logits[k]));
+  double sum = 0;
+  for (int k = 0; k < bins; ++k) sum += std::exp(static_cast<double>(logits[k]) - m);
+  const double log_sum = m + std::log(sum);
+  double ce = 0;
+  for (int k = 0; k < bins; ++k) {
+    const double logp = static_cast<double>(logits[k]) - log_sum;
+    const double p = std::exp(logp);
+    const double y = target ? static_cast<double>(target[k]) : 0.0;
+    if (y != 0) ce -= y * logp;
+    if (prob) prob[k] = p;
+    if (dz) dz[k] = p - y;
+  }
+  return ce;
+}
+
+namespace {
+/// |a - b| on the circle, degrees in [0, 180].
+double angle_between(double a, double b) {
+  const double d = std::fmod(std::fabs(a - b), 360.0);
+  return d > 180.0 ? 360.0 - d : d;
+}
+}  // namespace
+
+double azimuth_window_mass(const std::vector<float>& prob, double azimuth_deg) {
+  const int K = static_cast<int>(prob.size());
+  require(K > 0, "azimuth window: no bins");
+  const double w = 360.0 / K;
+  double m = 0;
+  for (int k = 0; k < K; ++k) m += prob[static_cast<size_t>(k)] * std::max(0.0, 1.0 - angle_between(azimuth_deg, k * w) / (2 * w));
+  return m;
+}
+
+double azimuth_flip_shift(const std::vector<float>& prob, double azimuth_deg, double margin) {
+  if (margin <= 0 || prob.empty()) return 0;
+  const int K = static_cast<int>(prob.size());
+  const double w = 360.0 / K;
+  const double here = azimuth_window_mass(prob, azimuth_deg);
+  double best = here;
+  int arg = 0;
+  for (int j = 1; j < K; ++j) {
+    const double m = azimuth_window_mass(prob, azimuth_deg + j * w);
+    if (m > best) {
+      best = m;
+      arg = j;
+    }
+  }
+  if (arg == 0 || !(best > margin * here)) return 0;
+  const double shift = arg * w;
+  return shift > 180.0 ? shift - 360.0 : shift;
+}
+
 double PoseNet::forward_backward(const MatrixXfR& images, const std::vector<PointsF>& points,
-                                 const std::vector<Camera>& truth, double weight) {
+                                 const std::vector<Camera>& truth, double weight, const PoseLossOptions& options,
+                                 double* azimuth_ce) {
   require(store_.has_grads(), "pose net: forward_backward needs a model built with gradients");
   const Eigen::Index B = images.rows();
   require(static_cast<Eigen::Index>(points.size()) == B && static_cast<Eigen::Index>(truth.size()) == B,
           "pose net: one point set and one camera per image");
+  require(!options.symmetries || static_cast<Eigen::Index>(options.symmetries->size()) == B,
+          "pose net: one symmetry list per image");
+  require(options.azimuth_weight >= 0 && std::isfinite(options.azimuth_weight),
+          "pose net: the azimuth weight must be >= 0");
+  require(options.azimuth_weight == 0 || s_.azimuth_bins > 0, "pose net: an azimuth weight needs the azimuth head");
   run(images, true);
   Tensor drot(rot_.shape), ddist(dist_.shape);
-  double total = 0;
+  double total = 0, ce_total = 0;
   const double range = s_.distance_max - s_.distance_min;
+  const double scale = weight / static_cast<double>(B);
+  static const std::vector<Mat3> kNone;
+  const int K = s_.azimuth_bins;
+  Tensor daz;
+  if (K > 0) daz.assign(az_.shape, 0.0f);  // an untrained head (weight 0) gets no gradient
   for (Eigen::Index b = 0; b < B; ++b) {
+    const std::vector<Mat3>& g = options.symmetries ? (*options.symmetries)[static_cast<size_t>(b)] : kNone;
     Vec6T<double> r;
     for (int k = 0; k < 6; ++k) r[k] = rot_[b * 6 + k];
     const Rot6dForward<double> f = rot6d_forward(r);
     const double sig = 1.0 / (1.0 + std::exp(-static_cast<double>(dist_[b])));
     Eigen::Matrix3d dR;
     double dd = 0;
-    total += pose_point_loss(f.R, s_.distance_min + sig * range, points[b], truth[b], &dR, &dd);
-    const Vec6T<double> db = rot6d_backward(f, dR) * (weight / static_cast<double>(B));
+    total += pose_point_loss_modulo(f.R, s_.distance_min + sig * range, points[b], truth[b], g, &dR, &dd);
+    const Vec6T<double> db = rot6d_backward(f, dR) * scale;
     for (int k = 0; k < 6; ++k) drot[b * 6 + k] = static_cast<float>(db[k]);
-    ddist[b] = static_cast<float>(dd * range * sig * (1.0 - sig) * (weight / static_cast<double>(B)));
+    ddist[b] = static_cast<float>(dd * range * sig * (1.0 - sig) * scale);
+    if (K > 0 && options.azimuth_weight > 0) {
+      // The target: the true azimuth and those of the twins, equally.
+      std::vector<float> y(static_cast<size_t>(K), 0.0f);
+      const double share = 1.0 / static_cast<double>(g.size() + 1);
+      add_azimuth_target(camera_azimuth(truth[b]), K, share, y.data());
+      for (const Mat3& m : g) {
+        Camera t = truth[b];
+        t.R = truth[b].R * m;
+        add_azimuth_target(camera_azimuth(t), K, share, y.data());
+      }
+      std::vector<double> dz(static_cast<size_t>(K));
+      ce_total += softmax_cross_entropy(az_.ptr() + b * K, y.data(), K, dz.data(), nullptr);
+      for (int k = 0; k < K; ++k) daz[b * K + k] = static_cast<float>(dz[static_cast<size_t>(k)] * options.azimuth_weight * scale);
+    }
   }
   Tensor dfeat_r, dfeat_d;
   rot_head_.backward(feat_, rot_, drot, &dfeat_r);
   dist_head_.backward(feat_, dist_, ddist, &dfeat_d);
   for (int64_t i = 0; i < dfeat_r.size(); ++i) dfeat_r[i] += dfeat_d[i];
+  if (K > 0 && options.azimuth_weight > 0) {
+    Tensor dfeat_a;
+    az_head_.backward(feat_, az_, daz, &dfeat_a);
+    for (int64_t i = 0; i < dfeat_r.size(); ++i) dfeat_r[i] += dfeat_a[i];
+  }
   trunk_.backward(x_, feat_, dfeat_r, nullptr);
+  if (azimuth_ce) *azimuth_ce = ce_total / static_cast<double>(B);
   return total / static_cast<double>(B);
 }
 

@@ -5,6 +5,8 @@
 //   -> conv 3x3/2 (4w) -> flatten (4w x 5 x 5) -> FC 256           (LeakyReLU 0.2 after every layer)
 //   -> rotation head FC 256 -> 128 -> 6, Gram-Schmidt (camera/rotation6d.h) -> R (world -> camera)
 //   -> distance head FC 256 -> 32 -> 1, d = d_min + sigmoid(z) (d_max - d_min)
+//   -> optional azimuth head FC 256 -> 128 -> K logits (azimuth_bins = K > 0): a coarse classifier of the camera
+//      centre's azimuth about the object's +y axis, bins centred at k * 360 / K
 //
 // The camera looks at the object-frame origin, so t = (0, 0, d) and K is DISN's (f = 149.84375, c = 68.5).
 // Distance range: DISN uses sigmoid * 0.4 + 0.6 times 1.75, i.e. [1.05, 1.75] ShapeNet units; our view sets
@@ -12,6 +14,15 @@
 //
 // Loss (DISN's L_cam): mean over items and over the shape's sample points p_i of
 //   |(R_pred p_i + t_pred) - (R_true p_i + t_true)|^2.
+// Two additions, both optional and both measured in docs/results/pose.md:
+//  * modulo symmetries: when an item comes with the rotations g that map its shape onto itself, its L_cam is the
+//    smallest over the true camera and its twins (R_true g, t_true), which an image cannot tell apart (the
+//    gradient is that of the minimum);
+//  * azimuth head: cross-entropy of the K logits against a soft one-hot of the true azimuth (split linearly
+//    between the two nearest bin centres; averaged over the twins), weighted by azimuth_weight. At inference it
+//    checks the regressed rotation for flips (azimuth_flip_shift): when the classifier puts clearly more mass at the
+//    regressed azimuth turned by a whole number of bins, the camera is turned about +y by that amount. The 6D head
+//    keeps the fine pose; the classifier only picks the mode.
 #pragma once
 
 #include "camera/camera.h"
@@ -28,6 +39,7 @@ struct PoseNetSettings {
   int feature = 256;     ///< shared feature size
   double distance_min = 2.3;
   double distance_max = 3.15;
+  int azimuth_bins = 0;  ///< K of the azimuth classifier head (0 = no head, as the models before it)
 
   [[nodiscard]] Json to_json() const;
   static PoseNetSettings from_json(const Json& j);
@@ -35,9 +47,22 @@ struct PoseNetSettings {
 
 /// Predicted cameras of a batch.
 struct PosePrediction {
-  std::vector<Camera> cameras;
+  std::vector<Camera> cameras;      ///< the estimate: the regressed camera after the flip check
+  std::vector<Camera> regressed;    ///< the 6D + distance heads' camera, before the flip check
+  std::vector<double> azimuth_shift;  ///< degrees the flip check turned each camera about +y (0 = kept)
   std::vector<Eigen::Matrix<float, 6, 1>> rot6d;  ///< raw 6D outputs
+  std::vector<std::vector<float>> azimuth_prob;   ///< softmax of the azimuth head (empty without the head)
 };
+
+/// Per-item options of a training forward/backward.
+struct PoseLossOptions {
+  /// symmetries[b]: object-frame rotations mapping item b's shape onto itself (empty or absent = none).
+  const std::vector<std::vector<Mat3>>* symmetries = nullptr;
+  double azimuth_weight = 0;  ///< weight of the azimuth cross-entropy (needs the head; 0 = head untrained)
+};
+
+/// Default margin of the flip check (PoseNet::set_flip_check).
+inline constexpr double kDefaultFlipCheck = 1.5;
 
 class PoseNet {
  public:
@@ -55,12 +80,19 @@ class PoseNet {
 
   /// images: B x (3 * S * S) channels-first rows (SdfBatch::images / Dataset::input), S = image_size.
   [[nodiscard]] PosePrediction predict(const MatrixXfR& images);
+  /// Margin of the flip check applied by predict() when the model has an azimuth head (azimuth_flip_shift);
+  /// 0 turns it off. Throws InvalidInput for a negative or non-finite margin.
+  void set_flip_check(double margin);
+  [[nodiscard]] double flip_check() const { return flip_check_; }
 
   /// One training forward + backward: returns the batch's L_cam and ADDS the gradients of weight x L_cam to the
   /// parameter gradients (call params().zero_grad() first). points[b] are item b's object-frame points. Data-
   /// parallel training runs one item per replica with weight 1 / batch (nets/pose_train.cpp).
+  /// With options: L_cam modulo each item's symmetries and the weighted azimuth cross-entropy (its mean over the
+  /// items goes to *azimuth_ce when given). The return value is L_cam alone.
   double forward_backward(const MatrixXfR& images, const std::vector<PointsF>& points,
-                          const std::vector<Camera>& truth, double weight = 1.0);
+                          const std::vector<Camera>& truth, double weight = 1.0, const PoseLossOptions& options = {},
+                          double* azimuth_ce = nullptr);
   /// Make this network a replica of `master` (same settings): it reads master's parameter values and owns its
   /// activations and gradient buffer (ParamStore::share_values).
   void share_parameters(PoseNet& master) { store_.share_values(master.store_); }
@@ -77,14 +109,42 @@ class PoseNet {
  private:
   void run(const MatrixXfR& images, bool training);
   PoseNetSettings s_;
-  Sequential<float> trunk_, rot_head_, dist_head_;
+  Sequential<float> trunk_, rot_head_, dist_head_, az_head_;
   ParamStore<float> store_;
-  Tensor x_, feat_, rot_, dist_;
+  Tensor x_, feat_, rot_, dist_, az_;
+  double flip_check_ = kDefaultFlipCheck;
 };
 
 /// L_cam of one item and its gradient wrt (R_pred, d_pred); exposed for tests.
 /// Returns mean_i |(R p_i + (0,0,d)) - (R_t p_i + t_t)|^2.
 double pose_point_loss(const Eigen::Matrix3d& R, double d, const PointsF& points, const Camera& truth,
                        Eigen::Matrix3d* dR, double* dd);
+
+/// L_cam modulo symmetries: the smallest pose_point_loss over the true camera and its twins (R_t g, t_t), g in
+/// `symmetries` (first minimum on ties; the gradient is that twin's). *twin receives the index of the minimum
+/// (0 = the true camera, k = symmetries[k - 1]).
+double pose_point_loss_modulo(const Eigen::Matrix3d& R, double d, const PointsF& points, const Camera& truth,
+                              const std::vector<Mat3>& symmetries, Eigen::Matrix3d* dR, double* dd,
+                              int* twin = nullptr);
+
+/// Azimuth of a camera centre (degrees in [0, 360), camera.h's convention: 0 at +z, 90 at +x).
+double camera_azimuth(const Camera& cam);
+
+/// Adds `weight` x the soft one-hot of `azimuth_deg` over K bins centred at k * 360 / K (split linearly between
+/// the two nearest centres) to target[0..K).
+void add_azimuth_target(double azimuth_deg, int bins, double weight, float* target);
+
+/// Cross-entropy -sum_k y_k log softmax(z)_k of K logits against a target distribution y (sum 1), computed stably;
+/// dz (may be null) receives softmax(z) - y, and prob (may be null) softmax(z).
+double softmax_cross_entropy(const float* logits, const float* target, int bins, double* dz, double* prob);
+
+/// The classifier's probability mass near an azimuth: sum_k p_k max(0, 1 - |angle(azimuth, c_k)| / (2 w)), with
+/// c_k = k w, w = 360 / K: the mass of the bins within two bin widths, tapered linearly.
+double azimuth_window_mass(const std::vector<float>& prob, double azimuth_deg);
+
+/// The flip check: among the azimuths a + j w (j = 0..K-1, keeping the regressed azimuth a's position inside its
+/// bin), the one of largest window mass; its shift j w (in (-180, 180], degrees) is returned when that mass
+/// exceeds `margin` x the mass at a, else 0. margin 0 = off (always 0).
+double azimuth_flip_shift(const std::vector<float>& prob, double azimuth_deg, double margin);
 
 }  // namespace sdfkit

@@ -8,12 +8,15 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <atomic>
 #include <future>
+#include <mutex>
 #include <iomanip>
 #include <limits>
 #include <sstream>
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 namespace fs = std::filesystem;
 
@@ -28,7 +31,7 @@ Json settings_json(const PoseTrainSettings& s) {
           {"points", s.points},           {"lr", s.lr},         {"lr_min", s.lr_min},
           {"beta1", s.beta1},             {"weight_decay", s.weight_decay}, {"grad_clip", s.grad_clip},
           {"max_shapes", s.max_shapes},   {"seed", s.seed}, {"augment", s.augment.to_json()},
-          {"init", s.init}};
+          {"init", s.init}, {"azimuth_weight", s.azimuth_weight}, {"symmetries", s.symmetry_tag}};
 }
 
 std::vector<PointsF> split_points(const SdfBatch& batch) {
@@ -137,6 +140,15 @@ void write_curve(const std::string& csv, const std::string& svg, const Json& cur
 
 }  // namespace
 
+PoseTrainSettings shipped_pose_recipe() {
+  PoseTrainSettings s;
+  s.steps = 28000;
+  s.net.width = 32;
+  s.net.azimuth_bins = 36;
+  s.azimuth_weight = 0.1;
+  return s;
+}
+
 void save_pose_model(const std::string& path, PoseNet& net, const Json& training, const Optimizer* optimizer) {
   Checkpoint ck;
   ck.header["kind"] = kPoseKind;
@@ -157,7 +169,12 @@ std::unique_ptr<PoseNet> load_pose_model(const std::string& path, Json* training
   } catch (const Json::exception&) {
     throw IoError(path + ": pose model without network settings");
   }
-  auto net = std::make_unique<PoseNet>(s, false);
+  std::unique_ptr<PoseNet> net;
+  try {
+    net = std::make_unique<PoseNet>(s, false);
+  } catch (const InvalidInput& e) {
+    throw IoError(path + ": pose model with impossible settings (" + e.what() + ")");
+  }
   require_header_match(ck, "architecture", net->architecture(), path);
   const auto& p = ck.block("params", static_cast<long>(net->n_params()));
   std::copy(p.begin(), p.end(), net->params().values.begin());
@@ -190,6 +207,12 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   bs.points_per_shape = s.points;
   bs.seed = s.seed;
   const BatchSampler sampler(train, bs);
+  require(s.azimuth_weight >= 0 && std::isfinite(s.azimuth_weight), "train pose: the azimuth weight must be >= 0");
+  require(s.azimuth_weight == 0 || s.net.azimuth_bins > 0, "train pose: --azimuth-weight needs --azimuth-bins > 0");
+  // Each training shape's symmetry group, once (read from its files by the caller's function), in parallel.
+  std::vector<std::vector<Mat3>> groups(train.size());
+  if (s.symmetries)
+    tbb::parallel_for(size_t(0), train.size(), [&](size_t i) { groups[i] = s.symmetries(train.shape(i)); });
 
   PoseNet net(s.net, true);
   net.init(s.seed);
@@ -213,9 +236,10 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
 
   const std::string state_path = s.out + ".train.ckpt";
   PoseTrainResult result;
+  for (const auto& g : groups) result.symmetric_shapes += g.empty() ? 0 : 1;
   result.model = s.out;
-  result.csv = s.out + ".csv";
-  result.plot = s.out + ".svg";
+  result.csv = loss_curve_path(s.out, "csv");
+  result.plot = loss_curve_path(s.out, "svg");
   // Temporary files of a run killed while writing (core/files.h): nobody else will remove them.
   if (Comm::world().is_root())
     for (const std::string& path : {state_path, s.out, result.csv, result.plot}) remove_stale_temporaries(path);
@@ -230,6 +254,8 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     const Json& stored = ck.header.value("settings", Json::object());
     if (stored.is_object() && !stored.contains("augment") && !s.augment.enabled()) expected.erase("augment");
     if (stored.is_object() && !stored.contains("init") && s.init.empty()) expected.erase("init");
+    if (stored.is_object() && !stored.contains("azimuth_weight") && s.azimuth_weight == 0) expected.erase("azimuth_weight");
+    if (stored.is_object() && !stored.contains("symmetries") && s.symmetry_tag.empty()) expected.erase("symmetries");
     require_header_match(ck, "settings", expected, state_path);
     const auto& p = ck.block("params", static_cast<long>(net.n_params()));
     std::copy(p.begin(), p.end(), net.params().values.begin());
@@ -265,10 +291,10 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   };
   std::future<SdfBatch> next;
   if (step < s.steps) next = std::async(std::launch::async, load, step);
-  double interval_loss = 0;
+  double interval_loss = 0, interval_ce = 0;
   long interval_n = 0;
   bool stop = false;
-  std::vector<double> item_loss(static_cast<size_t>(local));
+  std::vector<double> item_loss(static_cast<size_t>(local)), item_ce(static_cast<size_t>(local));
   while (step < s.steps && !stop) {
     SdfBatch batch = next.get();
     if (step + 1 < s.steps) next = std::async(std::launch::async, load, step + 1);
@@ -276,13 +302,20 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     tbb::parallel_for(0, local, [&](int k) {
       flush_denormals_on_this_thread();
       PoseNet& r = *replicas[static_cast<size_t>(k)];
+      const std::vector<std::vector<Mat3>> g = {groups[static_cast<size_t>(batch.shape_index[static_cast<size_t>(k)])]};
+      PoseLossOptions lo;
+      lo.symmetries = &g;
+      lo.azimuth_weight = s.azimuth_weight;
       item_loss[static_cast<size_t>(k)] =
           r.forward_backward(batch.images.middleRows(k, 1), {points[static_cast<size_t>(k)]},
-                             {batch.cameras[static_cast<size_t>(k)]}, 1.0 / s.batch);
+                             {batch.cameras[static_cast<size_t>(k)]}, 1.0 / s.batch, lo, &item_ce[static_cast<size_t>(k)]);
     });
-    double loss = 0;
+    double loss = 0, ce = 0;
     for (const double l : comm.gather(item_loss)) loss += l;
+    for (const double l : comm.gather(item_ce)) ce += l;
     loss /= s.batch;
+    ce /= s.batch;
+    interval_ce += ce;
     comm.ordered_sum(item_grads, net.params().grads.data(), net.params().size(), true);
     if (s.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.params().size(), s.grad_clip);
     const double rate = lr.at(step);
@@ -302,7 +335,9 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
       row[3] = ev.val.d3d;
       row[4] = ev.val.d2d;
       curve.push_back(row);
+      result.train_azimuth_ce = interval_n > 0 ? interval_ce / static_cast<double>(interval_n) : 0.0;
       interval_loss = 0;
+      interval_ce = 0;
       interval_n = 0;
       Json training = {{"step", step},       {"seconds", ev.seconds},     {"val_loss", ev.val.loss},
                        {"val_d3d", ev.val.d3d}, {"val_d2d", ev.val.d2d}, {"settings", settings_json(s)},
@@ -348,38 +383,70 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
     draw_samples(data.samples(s), es.points, Rng::mix(es.seed + 1000003ULL * s), shape_points[s], d);
     if (es.symmetries) shape_symmetries[s] = es.symmetries(data.shape(s));
   }
-  PoseScores total;
+  // Fixed chunks of es.batch items, chunk c on replica c mod R (replicas share net's values): every chunk is computed
+  // as in a serial run, so the scores do not depend on the thread count.
   const int S = net.settings().image_size;
-  for (size_t b0 = 0; b0 < items.size(); b0 += static_cast<size_t>(es.batch)) {
-    const size_t m = std::min(items.size() - b0, static_cast<size_t>(es.batch));
-    MatrixXfR images(static_cast<Eigen::Index>(m), 3 * S * S);
-    std::vector<PointsF> pts;
-    std::vector<Camera> cams;
-    for (size_t k = 0; k < m; ++k) {
-      const auto [s, v] = items[b0 + k];
-      images.row(static_cast<Eigen::Index>(k)) = network_image(data.image(s, v), S).transpose();
-      pts.push_back(shape_points[s]);
-      cams.push_back(data.camera(s, v));
-    }
-    std::vector<PoseErrors> each;
-    std::vector<double> losses;
-    std::vector<Camera> predicted;
-    score_batch(net, images, pts, cams, &each, &losses, &predicted);
-    for (size_t k = 0; k < m; ++k) {
-      const int s = items[b0 + k].first;
-      const std::vector<Mat3>& g = shape_symmetries[static_cast<size_t>(s)];
-      const PoseErrors sym = g.empty() ? each[k] : pose_errors_modulo(to_double(pts[k]), predicted[k], cams[k], g);
-      for (PoseScores* p : {&total, per_category ? &(*per_category)[data.shape(s).category] : nullptr}) {
-        if (!p) continue;
-        p->loss += losses[k];
-        p->d3d += each[k].d3d;
-        p->d2d += each[k].d2d;
-        p->d3d_sym += sym.d3d;
-        p->d2d_sym += sym.d2d;
-        ++p->items;
+  const size_t chunks = (items.size() + static_cast<size_t>(es.batch) - 1) / static_cast<size_t>(es.batch);
+  const size_t R = std::max<size_t>(1, std::min<size_t>(chunks, static_cast<size_t>(tbb::this_task_arena::max_concurrency())));
+  std::vector<std::unique_ptr<PoseNet>> replicas;
+  std::vector<PoseNet*> nets = {&net};
+  for (size_t r = 1; r < R; ++r) {
+    replicas.push_back(std::make_unique<PoseNet>(net.settings(), true));
+    replicas.back()->share_parameters(net);
+    replicas.back()->set_flip_check(net.flip_check());
+    nets.push_back(replicas.back().get());
+  }
+  struct ItemScore {
+    double loss = 0;
+    PoseErrors plain, sym;
+  };
+  std::vector<ItemScore> scored(items.size());
+  std::atomic<long> done{0};
+  std::mutex progress_mutex;
+  tbb::parallel_for(size_t(0), R, [&](size_t r) {
+    flush_denormals_on_this_thread();
+    for (size_t c = r; c < chunks; c += R) {
+      const size_t b0 = c * static_cast<size_t>(es.batch);
+      const size_t m = std::min(items.size() - b0, static_cast<size_t>(es.batch));
+      MatrixXfR images(static_cast<Eigen::Index>(m), 3 * S * S);
+      std::vector<PointsF> pts;
+      std::vector<Camera> cams;
+      for (size_t k = 0; k < m; ++k) {
+        const auto [s, v] = items[b0 + k];
+        images.row(static_cast<Eigen::Index>(k)) = network_image(data.image(s, v), S).transpose();
+        pts.push_back(shape_points[s]);
+        cams.push_back(data.camera(s, v));
+      }
+      std::vector<PoseErrors> each;
+      std::vector<double> losses;
+      std::vector<Camera> predicted;
+      score_batch(*nets[r], images, pts, cams, &each, &losses, &predicted);
+      for (size_t k = 0; k < m; ++k) {
+        const std::vector<Mat3>& g = shape_symmetries[static_cast<size_t>(items[b0 + k].first)];
+        scored[b0 + k] = {losses[k], each[k],
+                          g.empty() ? each[k] : pose_errors_modulo(to_double(pts[k]), predicted[k], cams[k], g)};
+      }
+      const long now = done += static_cast<long>(m);
+      if (progress) {
+        const std::lock_guard<std::mutex> lock(progress_mutex);
+        progress(now, static_cast<long>(items.size()));
       }
     }
-    if (progress) progress(static_cast<long>(b0 + m), static_cast<long>(items.size()));
+  });
+  PoseScores total;
+  for (size_t i = 0; i < items.size(); ++i) {
+    const ItemScore& it = scored[i];
+    const int s = items[i].first;
+    for (PoseScores* p : {&total, per_category ? &(*per_category)[data.shape(s).category] : nullptr}) {
+      if (!p) continue;
+      p->loss += it.loss;
+      p->d3d += it.plain.d3d;
+      p->d2d += it.plain.d2d;
+      p->d3d_sym += it.sym.d3d;
+      p->d2d_sym += it.sym.d2d;
+      p->large += it.plain.d2d > kLargePoseError ? 1.0 : 0.0;
+      ++p->items;
+    }
   }
   auto finish = [](PoseScores& p) {
     if (p.items == 0) return;
@@ -388,6 +455,7 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
     p.d2d /= static_cast<double>(p.items);
     p.d3d_sym /= static_cast<double>(p.items);
     p.d2d_sym /= static_cast<double>(p.items);
+    p.large /= static_cast<double>(p.items);
   };
   finish(total);
   if (per_category)

@@ -36,6 +36,14 @@ struct PoseTrainSettings {
   /// Photometric augmentation of the training images (the camera stays exact; nets/dataset.h). Off by default in
   /// the struct; `sdfkit train pose` sets its measured defaults.
   ImageAugmentSettings augment;
+  /// Weight of the azimuth head's cross-entropy (net.azimuth_bins > 0 required when positive).
+  double azimuth_weight = 0;
+  /// The object-frame rotations that map a training shape onto itself (e.g. sdf/symmetry.h from its gt mesh),
+  /// called once per training shape at the start, in parallel; when set, L_cam and the azimuth target are taken
+  /// modulo them (PoseLossOptions). `symmetry_tag` names the source in the resumable state (a resume must use the
+  /// same one).
+  std::function<std::vector<Mat3>(const ShapeEntry&)> symmetries;
+  std::string symmetry_tag;
   uint64_t seed = 1;
   /// Start from the parameters of this pose model (fine-tuning; same architecture required) instead of the seeded
   /// initialisation. Ignored when a resumable state is found (--resume).
@@ -43,6 +51,11 @@ struct PoseTrainSettings {
   bool resume = false;
   double time_limit_seconds = 0;  ///< stop (and save) after this much wall time (0 = none)
 };
+
+/// The shipped pose model's recipe (docs/results/pose.md): the struct's defaults (DISN's loss on the small network)
+/// with 28,000 steps, width 32 and a 36-bin azimuth head of weight 0.1. `sdfkit train pose` starts from these; the
+/// symmetry source is the command's (`--symmetry-tol`).
+PoseTrainSettings shipped_pose_recipe();
 
 struct PoseScores {
   double loss = 0;  ///< mean L_cam
@@ -52,7 +65,12 @@ struct PoseScores {
   /// Modulo each shape's symmetries (pose_errors_modulo): only from evaluate_pose with a symmetry source, else
   /// equal to d3d / d2d.
   double d3d_sym = 0, d2d_sym = 0;
+  /// Share of the items whose d2D exceeds kLargePoseError px (whole-view flips and turns; evaluate_pose only).
+  double large = 0;
 };
+
+/// d2D (pixels) above which evaluate_pose counts an estimate as a large error (PoseScores::large).
+inline constexpr double kLargePoseError = 10.0;
 
 using PoseTrainEvent = TrainEvent<PoseScores>;
 
@@ -61,6 +79,8 @@ struct PoseTrainResult {
   double seconds = 0;        ///< wall time of this run
   double total_seconds = 0;  ///< including earlier runs that were resumed
   PoseScores val;
+  double train_azimuth_ce = 0;  ///< mean azimuth cross-entropy of the last validation interval (0 without the head)
+  long symmetric_shapes = 0;    ///< training shapes with at least one symmetry (with a symmetry source)
   std::string model, csv, plot;
 };
 

@@ -28,11 +28,6 @@ namespace {
 
 constexpr int kLogEvery = 25;  // CSV rows: mean training loss over this many steps
 
-std::string stem_path(const std::string& model) {
-  fs::path p(model);
-  return (p.parent_path() / p.stem()).string();
-}
-
 /// Loss of the variant (value; gradient into grad when not null).
 double variant_loss(const SdfNetConfig& c, const Tensor& pred, const Tensor& sdf, Tensor* grad) {
   if (c.variant == SdfVariant::Binary) {
@@ -230,8 +225,8 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
 
   SdfTrainResult res;
   res.model = st.out;
-  res.csv = stem_path(st.out) + ".loss.csv";
-  res.plot = stem_path(st.out) + ".loss.svg";
+  res.csv = loss_curve_path(st.out, "csv");
+  res.plot = loss_curve_path(st.out, "svg");
   // Temporary files of a run killed while writing (core/files.h): nobody else will remove them.
   if (Comm::world().is_root())
     for (const std::string& path : {st.out, res.csv, res.plot}) remove_stale_temporaries(path);

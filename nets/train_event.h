@@ -1,7 +1,18 @@
-// What a training loop (train_pose, train_sdf) reports to its caller after every step.
+// What a training loop (train_pose, train_sdf) reports to its caller after every step, and the names of the files
+// both loops write beside the model.
 #pragma once
 
+#include <filesystem>
+#include <string>
+
 namespace sdfkit {
+
+/// The loss curve's files beside a model: MODEL_STEM.loss.csv and MODEL_STEM.loss.svg (models/sdf.ckpt ->
+/// models/sdf.loss.csv), for `train sdf` and `train pose` alike.
+inline std::string loss_curve_path(const std::string& model, const char* extension) {
+  const std::filesystem::path p(model);
+  return (p.parent_path() / p.stem()).string() + ".loss." + extension;
+}
 
 /// The step just taken; `validated` and `val` on the steps that ran a validation. `Scores` is the loop's own
 /// validation record (PoseScores, SdfValidation).

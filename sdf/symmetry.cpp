@@ -36,4 +36,11 @@ std::vector<RotationSymmetry> vertical_symmetries(const Mesh& mesh, double tol) 
   return out;
 }
 
+std::vector<Mat3> vertical_symmetry_rotations(const Mesh& mesh, double tol) {
+  std::vector<Mat3> out;
+  for (const RotationSymmetry& r : vertical_symmetries(mesh, tol))
+    if (r.symmetric) out.push_back(r.R);
+  return out;
+}
+
 }  // namespace sdfkit

@@ -20,4 +20,8 @@ struct RotationSymmetry {
 /// Deterministic. Throws InvalidInput for an empty mesh or a non-positive or non-finite tolerance.
 std::vector<RotationSymmetry> vertical_symmetries(const Mesh& mesh, double tol);
 
+/// The rotations of vertical_symmetries that are symmetries (the shape's group less the identity), in the order
+/// 90, 180, 270 degrees.
+std::vector<Mat3> vertical_symmetry_rotations(const Mesh& mesh, double tol);
+
 }  // namespace sdfkit

@@ -19,7 +19,23 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// Three shapes x 2 views: coloured boxes on transparent renders, random SDF samples, exact cameras.
+/// gt.obj of a box [-a, a] x [-0.3, 0.3] x [-b, b] shifted by dx along x: a == b and dx == 0 give a shape with
+/// quarter-turn symmetries, the others none (what `train pose --symmetry-tol` reads).
+std::string box_obj(double a, double b, double dx) {
+  std::string o;
+  for (int k = 0; k < 8; ++k)
+    o += "v " + std::to_string((k & 1 ? a : -a) + dx) + " " + std::to_string(k & 2 ? 0.3 : -0.3) + " " +
+         std::to_string(k & 4 ? b : -b) + "\n";
+  // Outward-facing quads split into triangles (1-based).
+  const int q[6][4] = {{1, 3, 4, 2}, {5, 6, 8, 7}, {1, 2, 6, 5}, {3, 7, 8, 4}, {1, 5, 7, 3}, {2, 4, 8, 6}};
+  for (const auto& f : q)
+    o += "f " + std::to_string(f[0]) + " " + std::to_string(f[1]) + " " + std::to_string(f[2]) + "\nf " +
+         std::to_string(f[0]) + " " + std::to_string(f[2]) + " " + std::to_string(f[3]) + "\n";
+  return o;
+}
+
+/// Three shapes x 2 views: coloured boxes on transparent renders, random SDF samples, exact cameras, and a gt.obj
+/// (shape 0 symmetric under quarter turns).
 fs::path make_dataset() {
   const fs::path root = test::scratch_dir("mpi_train");
   fs::remove_all(root);
@@ -33,6 +49,7 @@ fs::path make_dataset() {
       samples.row(r) << float(rng.uniform(-0.5, 0.5)), float(rng.uniform(-0.5, 0.5)), float(rng.uniform(-0.5, 0.5)),
           float(rng.uniform(-0.1, 0.1));
     write_npy((root / id / "samples.npy").string(), samples);
+    write_text_atomic((root / id / "gt.obj").string(), s == 0 ? box_obj(0.4, 0.4, 0) : box_obj(0.5, 0.2, 0.1 * s));
     for (int v = 0; v < 2; ++v) {
       const std::string nn = "0" + std::to_string(v);
       write_camera((root / id / "views" / (nn + ".json")).string(), look_at(70.0 * v + 30 * s, 27, 2.7));
@@ -97,12 +114,17 @@ TEST_CASE("train sdf on 2 MPI ranks writes the checkpoint of one process, bit fo
 
 TEST_CASE("train pose on 2 MPI ranks writes the model and the state of one process, bit for bit") {
   const fs::path root = make_dataset();
-  run_one_and_two(root, "train pose --data " + root.string() +
+  const test::CliRun r2 = run_one_and_two(root, "train pose --data " + root.string() +
                             " --val-split '' --width 2 --batch 3 --points 32 --steps 4 --val-every 2 --val-items 3 "
-                            "--aug-colour 0.2");
+                            "--aug-colour 0.2 --azimuth-bins 8 --json");
   const std::string one = (root / "one.ckpt").string(), two = (root / "two.ckpt").string();
   check_same_checkpoint(one + ".train.ckpt", two + ".train.ckpt");
   check_same_checkpoint(one, two);
+  // The defaults take L_cam modulo the shapes' symmetries (shape 0's quarter turns); the state records it.
+  CHECK(Json::parse(r2.out).at("symmetric_shapes").get<long>() == 1);
+  const Checkpoint state = load_checkpoint(one + ".train.ckpt");
+  CHECK(state.header.at("settings").at("symmetries").get<std::string>().find("tol 0.01") != std::string::npos);
+  CHECK(state.header.at("settings").at("azimuth_weight").get<double>() > 0);
   fs::remove_all(root);
 }
 

@@ -4,6 +4,7 @@
 #include "nets/optim.h"
 #include "nets/checkpoint.h"
 #include "nets/pose_train.h"
+#include "gradcheck.h"
 #include "scratch.h"
 
 #include <doctest/doctest.h>
@@ -134,5 +135,228 @@ TEST_CASE("pose net: training on a tiny batch lowers L_cam, model file round tri
   other.header["kind"] = "sdf_model";
   save_checkpoint((dir / "other.ckpt").string(), other);
   CHECK_THROWS_AS(load_pose_model((dir / "other.ckpt").string()), IoError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("L_cam modulo symmetries: zero at a twin of the truth, the twin's gradient, first minimum on ties") {
+  const Camera truth = look_at(40, 27, 2.7);
+  const PointsF pts = random_points(40, 3);
+  const Mat3 half = Eigen::AngleAxisd(3.14159265358979323846, Vec3::UnitY()).toRotationMatrix();
+  const Mat3 quarter = Eigen::AngleAxisd(3.14159265358979323846 / 2, Vec3::UnitY()).toRotationMatrix();
+  // The twin (R_t g, t_t) is the true camera turned to azimuth 40 + 180.
+  Camera twin = truth;
+  twin.R = truth.R * half;
+  CHECK((twin.R - look_at(220, 27, 2.7).R).norm() < 1e-12);
+  int which = -1;
+  CHECK(pose_point_loss_modulo(twin.R, 2.7, pts, truth, {quarter, half}, nullptr, nullptr, &which) < 1e-20);
+  CHECK(which == 2);
+  CHECK(pose_point_loss_modulo(twin.R, 2.7, pts, truth, {}, nullptr, nullptr, &which) > 1.0);
+  CHECK(which == 0);
+  // Away from the truth, the value and gradient are those of the nearest twin.
+  const Camera other = look_at(200, 22, 2.5);
+  Eigen::Matrix3d dR, dR_twin;
+  double dd = 0, dd_twin = 0;
+  const double l = pose_point_loss_modulo(other.R, 2.5, pts, truth, {half}, &dR, &dd, &which);
+  CHECK(which == 1);
+  CHECK(l == pose_point_loss(other.R, 2.5, pts, twin, &dR_twin, &dd_twin));
+  CHECK(dR == dR_twin);
+  CHECK(dd == dd_twin);
+  // The identity as a "symmetry" ties with the truth: the truth (index 0) wins.
+  pose_point_loss_modulo(other.R, 2.5, pts, truth, {Mat3::Identity()}, nullptr, nullptr, &which);
+  CHECK(which == 0);
+}
+
+TEST_CASE("azimuth head helpers: targets, cross-entropy, window mass and the flip check") {
+  // Targets: split between the two nearest centres, wrapping at 360.
+  std::vector<float> y(36, 0.0f);
+  add_azimuth_target(355.0, 36, 1.0, y.data());
+  CHECK(y[35] == doctest::Approx(0.5));
+  CHECK(y[0] == doctest::Approx(0.5));
+  std::fill(y.begin(), y.end(), 0.0f);
+  add_azimuth_target(120.0, 36, 0.25, y.data());
+  CHECK(y[12] == doctest::Approx(0.25));
+  double sum = 0;
+  for (float v : y) sum += v;
+  CHECK(sum == doctest::Approx(0.25));
+  add_azimuth_target(-10.0, 36, 1.0, y.data());  // = 350
+  CHECK(y[35] == doctest::Approx(1.0));
+
+  // Cross-entropy: log K for equal logits and a one-hot target; gradient against finite differences.
+  std::vector<float> z(8, 0.3f), t(8, 0.0f);
+  t[3] = 1.0f;
+  std::vector<double> dz(8), p(8);
+  CHECK(softmax_cross_entropy(z.data(), t.data(), 8, dz.data(), p.data()) == doctest::Approx(std::log(8.0)));
+  CHECK(p[0] == doctest::Approx(0.125));
+  Rng rng(4);
+  for (auto& v : z) v = static_cast<float>(rng.uniform(-3, 3));
+  t = {0.1f, 0.0f, 0.4f, 0.5f, 0.0f, 0.0f, 0.0f, 0.0f};
+  softmax_cross_entropy(z.data(), t.data(), 8, dz.data(), nullptr);
+  for (int k = 0; k < 8; ++k) {
+    // Central difference in double through a double copy of the logits.
+    auto ce = [&](double h) {
+      double m = -1e300, s = 0;
+      std::vector<double> zz(z.begin(), z.end());
+      zz[static_cast<size_t>(k)] += h;
+      for (double v : zz) m = std::max(m, v);
+      for (double v : zz) s += std::exp(v - m);
+      double c = 0;
+      for (int j = 0; j < 8; ++j) c -= t[static_cast<size_t>(j)] * (zz[static_cast<size_t>(j)] - m - std::log(s));
+      return c;
+    };
+    CHECK(dz[static_cast<size_t>(k)] == doctest::Approx((ce(1e-6) - ce(-1e-6)) / 2e-6).epsilon(1e-6));
+  }
+  // Extreme logits stay finite.
+  std::vector<float> big = {1e30f, -1e30f, 0.0f, 0.0f};
+  std::vector<float> tb = {0.0f, 1.0f, 0.0f, 0.0f};
+  CHECK(std::isfinite(softmax_cross_entropy(big.data(), tb.data(), 4, nullptr, nullptr)));
+
+  // Window mass: all mass in bin 18 (180 degrees) of 36: full at 180, half at 190, none past 200.
+  std::vector<float> prob(36, 0.0f);
+  prob[18] = 1.0f;
+  CHECK(azimuth_window_mass(prob, 180) == doctest::Approx(1.0));
+  CHECK(azimuth_window_mass(prob, 190) == doctest::Approx(0.5));
+  CHECK(azimuth_window_mass(prob, 201) == 0.0);
+  // Flip check: a regressed azimuth of 3 degrees against a classifier sure of 180: turned by 180 (to 183).
+  CHECK(azimuth_flip_shift(prob, 3.0, 1.5) == doctest::Approx(180.0));
+  CHECK(azimuth_flip_shift(prob, 3.0, 0.0) == 0.0);  // off
+  // The regressed azimuth already where the classifier is: kept.
+  CHECK(azimuth_flip_shift(prob, 178.0, 1.5) == 0.0);
+  // Two modes: 0.55 at 90 degrees, 0.45 at the regressed 270 (ratio 1.22): the margin decides.
+  std::fill(prob.begin(), prob.end(), 0.0f);
+  prob[9] = 0.55f;
+  prob[27] = 0.45f;
+  CHECK(azimuth_flip_shift(prob, 270.0, 1.25) == 0.0);
+  CHECK(azimuth_flip_shift(prob, 270.0, 1.2) == doctest::Approx(180.0));
+  // Shifts are reported in (-180, 180]: a mode 30 degrees below.
+  std::fill(prob.begin(), prob.end(), 0.0f);
+  prob[3] = 1.0f;
+  CHECK(azimuth_flip_shift(prob, 60.0, 1.5) == doctest::Approx(-30.0));
+}
+
+TEST_CASE("pose net with an azimuth head: gradients of L_cam (modulo symmetries) + weighted cross-entropy") {
+  PoseNetSettings s;
+  s.width = 2;
+  s.image_size = 40;
+  s.feature = 12;
+  s.azimuth_bins = 8;
+  PoseNet net(s, true);
+  net.init(11);
+  Rng rng(12);
+  for (auto& v : net.params().values) v += static_cast<float>(0.05 * rng.uniform(-1, 1));
+  MatrixXfR img(2, 3 * 40 * 40);
+  for (Eigen::Index i = 0; i < img.size(); ++i) img.data()[i] = static_cast<float>(rng.uniform());
+  const std::vector<Camera> truth = {look_at(30, 25, 2.6), look_at(250, 28, 2.9)};
+  const std::vector<PointsF> pts = {random_points(32, 1), random_points(32, 2)};
+  const Mat3 half = Eigen::AngleAxisd(3.14159265358979323846, Vec3::UnitY()).toRotationMatrix();
+  const std::vector<std::vector<Mat3>> sym = {{}, {half}};
+  PoseLossOptions lo;
+  lo.symmetries = &sym;
+  lo.azimuth_weight = 0.7;
+  auto objective = [&] {
+    double ce = 0;
+    net.params().zero_grad();
+    const double l = net.forward_backward(img, pts, truth, 1.0, lo, &ce);
+    return l + lo.azimuth_weight * ce;
+  };
+  objective();
+  const std::vector<float> grads(net.params().grads.begin(), net.params().grads.end());
+  // The azimuth head's output bias: d/db_k = w / B sum_b (softmax_bk - y_bk), in closed form.
+  const PosePrediction p = net.predict(img);
+  REQUIRE(p.azimuth_prob.size() == 2);
+  const size_t bias0 = net.n_params() - 8;
+  for (int k = 0; k < 8; ++k) {
+    double expect = 0;
+    for (int b = 0; b < 2; ++b) {
+      std::vector<float> y(8, 0.0f);
+      const double share = b == 0 ? 1.0 : 0.5;
+      add_azimuth_target(look_at_params(truth[b]).azimuth_deg, 8, share, y.data());
+      if (b == 1) add_azimuth_target(look_at_params(truth[b]).azimuth_deg + 180, 8, share, y.data());
+      expect += p.azimuth_prob[b][k] - y[k];
+    }
+    CHECK(grads[bias0 + k] == doctest::Approx(0.7 / 2 * expect).epsilon(1e-4));
+  }
+  // Every other parameter: central differences in float (loose tolerance), over the trunk and the three heads.
+  auto value = [&] {
+    double ce = 0;
+    net.params().zero_grad();
+    const double l = net.forward_backward(img, pts, truth, 1.0, lo, &ce);
+    return l + lo.azimuth_weight * ce;
+  };
+  std::vector<size_t> idx = test::some_indices(net.n_params(), 40, 5);
+  for (size_t k = 0; k < 20; ++k) idx.push_back(net.n_params() - 1 - 37 * k);  // the heads
+  std::vector<double> analytic, numeric;
+  for (size_t i : idx) {
+    float& v = net.params().values[i];
+    const float old = v;
+    const float h = 2e-3f;
+    v = old + h;
+    const double fp = value();
+    v = old - h;
+    const double fm = value();
+    v = old;
+    numeric.push_back((fp - fm) / (2.0 * h));
+    analytic.push_back(grads[i]);
+  }
+  CHECK(test::relative_error(analytic, numeric) < 2e-2);
+  // Weight 0 leaves the head without gradient, and a head-less model refuses a weight.
+  lo.azimuth_weight = 0;
+  net.params().zero_grad();
+  net.forward_backward(img, pts, truth, 1.0, lo, nullptr);
+  for (size_t k = 0; k < 8; ++k) CHECK(net.params().grads[bias0 + k] == 0.0f);
+  PoseNetSettings plain = s;
+  plain.azimuth_bins = 0;
+  PoseNet headless(plain, true);
+  lo.azimuth_weight = 0.5;
+  CHECK_THROWS_AS(headless.forward_backward(img, pts, truth, 1.0, lo, nullptr), InvalidInput);
+}
+
+TEST_CASE("pose net with an azimuth head: the flip check turns the camera, the model file keeps the head") {
+  PoseNetSettings s;
+  s.width = 2;
+  s.image_size = 40;
+  s.feature = 12;
+  s.azimuth_bins = 12;
+  PoseNet net(s, true);
+  net.init(2);
+  // Force the classifier to one bin through its output bias: every image then says "azimuth 90".
+  const size_t bias0 = net.n_params() - 12;
+  for (size_t k = 0; k < 12; ++k) net.params().values[bias0 + k] = k == 3 ? 40.0f : -40.0f;
+  MatrixXfR img = MatrixXfR::Random(3, 3 * 40 * 40).array() * 0.5f + 0.5f;
+  net.set_flip_check(0);
+  const PosePrediction off = net.predict(img);
+  net.set_flip_check(1.5);
+  const PosePrediction on = net.predict(img);
+  for (int b = 0; b < 3; ++b) {
+    CHECK(off.azimuth_shift[b] == 0.0);
+    CHECK((off.cameras[b].R - off.regressed[b].R).norm() == 0.0);
+    const double a = look_at_params(off.cameras[b]).azimuth_deg, turned = look_at_params(on.cameras[b]).azimuth_deg;
+    // Turned by a whole number of 30-degree bins: to within 15 degrees of 90, or kept when already within 40
+    // (the margin 1.5 keeps a camera whose window mass is at least 2/3 of the best).
+    CHECK(std::fabs(turned - 90) <= (on.azimuth_shift[b] != 0 ? 15.0 : 40.0) + 1e-9);
+    CHECK(std::fmod(std::fabs(turned - a) + 1e-9, 30.0) < 1e-6);
+    CHECK(on.cameras[b].t == off.cameras[b].t);
+  }
+  CHECK_THROWS_AS(net.set_flip_check(-1), InvalidInput);
+  // Model file: the head and its bins come back; a model without the head has no azimuth_bins key.
+  const auto dir = test::scratch_dir("pose_net_head");
+  const std::string path = (dir / "pose.ckpt").string();
+  save_pose_model(path, net);
+  auto loaded = load_pose_model(path);
+  CHECK(loaded->settings().azimuth_bins == 12);
+  CHECK(loaded->n_params() == net.n_params());
+  CHECK(net.architecture().at("settings").contains("azimuth_bins"));
+  // A model file whose settings no network can have is an IoError naming the file.
+  Checkpoint forged = load_checkpoint(path);
+  forged.header["architecture"]["settings"]["azimuth_bins"] = 2;
+  const std::string bad = (dir / "bad.ckpt").string();
+  save_checkpoint(bad, forged);
+  try {
+    load_pose_model(bad);
+    FAIL("a model with 2 azimuth bins loaded");
+  } catch (const IoError& e) {
+    CHECK(std::string(e.what()).find(bad) != std::string::npos);
+  }
+  s.azimuth_bins = 0;
+  CHECK_FALSE(PoseNet(s, false).architecture().at("settings").contains("azimuth_bins"));
   std::filesystem::remove_all(dir);
 }

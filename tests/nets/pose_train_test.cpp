@@ -8,6 +8,7 @@
 #include "nets/checkpoint.h"
 
 #include <doctest/doctest.h>
+#include <tbb/task_arena.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
@@ -77,7 +78,12 @@ std::vector<float> model_params(const std::string& path) {
 TEST_CASE("train pose with augmentation: seeded, recorded in the model header, changes the training") {
   const fs::path root = make_pose_dataset();
   PoseTrainSettings s = tiny_settings(root, (root / "plain.ckpt").string());
-  train_pose(s);
+  const PoseTrainResult plain = train_pose(s);
+  // The curve is named as train sdf names its own: MODEL_STEM.loss.csv / .loss.svg.
+  CHECK(plain.csv == (root / "plain.loss.csv").string());
+  CHECK(plain.plot == (root / "plain.loss.svg").string());
+  CHECK(read_file(plain.csv).rfind("step,train_loss,val_loss,val_d3d,val_d2d,lr,seconds\n", 0) == 0);
+  CHECK(fs::exists(plain.plot));
   s.augment.colour = 0.5;
   s.augment.channel_swap = 0.5;
   s.augment.noise = 0.02;
@@ -228,8 +234,25 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
   const PoseScores all_plain = evaluate_pose(*net, data, es, &plain);
   evaluate_pose(*net, twin_data, es, &twin);
   CHECK(all_plain.items == 2);
+  // One item per category: its large-error share is 0 or 1 by its own d2D; the overall share is their mean.
+  for (auto& [c, v] : plain) CHECK(v.large == (v.d2d > kLargePoseError ? 1.0 : 0.0));
+  CHECK(all_plain.large == doctest::Approx((plain["car"].large + plain["lamp"].large) / 2));
   CHECK(all_plain.d2d_sym == all_plain.d2d);  // no symmetry source: the plain scores
   CHECK(all_plain.d3d_sym == all_plain.d3d);
+
+  // Chunks of one image on 1 or 2 threads: the same scores, bit for bit.
+  {
+    PoseEvalSettings each = es;
+    each.views = -1;
+    each.batch = 1;
+    PoseScores one, two;
+    tbb::task_arena(1).execute([&] { one = evaluate_pose(*net, data, each); });
+    tbb::task_arena(2).execute([&] { two = evaluate_pose(*net, data, each); });
+    CHECK(one.items == 4);
+    CHECK(one.d2d == two.d2d);
+    CHECK(one.d3d == two.d3d);
+    CHECK(one.loss == two.loss);
+  }
 
   // The half turn for the car only; the source is asked once per shape.
   int calls = 0;
