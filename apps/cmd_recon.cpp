@@ -102,6 +102,11 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "drop mesh components with fewer faces than this fraction of the largest (DISN: 0.3)")
       ->capture_default_str();
   app.add_option("--format", o->format, "mesh format in folder mode: obj or ply")->capture_default_str();
+  app.add_option("--flip-check", o->s.flip_check,
+                 "pose models with an azimuth head: turn the estimated camera to the azimuth the head prefers when it "
+                 "gives that azimuth more than this many times the probability of the regressed one (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--refine-camera", o->refine,
                "test-time camera refinement (opt-in, docs/recon.md): reconstruct coarsely (--refine-res) for camera "
                "candidates turned in azimuth within +-(--refine-sweep) degrees, keep the one whose mesh's "
@@ -201,6 +206,7 @@ std::function<int()> setup_recon(CLI::App& app) {
         if (o->s.preview) j["preview"] = preview_path;
         j["camera"] = camera_to_json(r.camera);
         j["camera_source"] = r.camera_estimated ? "estimated" : "given";
+        if (r.camera_estimated) j["flip_turn_deg"] = r.flip_turn_deg;
         if (!r.refinements.empty()) {
           Json rounds = Json::array();
           for (const CameraRefineResult& rr : r.refinements)

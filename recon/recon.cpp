@@ -142,12 +142,15 @@ std::unique_ptr<Reconstructor> Reconstructor::load(const std::string& sdf_path, 
   return std::make_unique<Reconstructor>(std::move(sdf), std::move(pose));
 }
 
-Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input) const {
+Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_check, double* flip_turn_deg) const {
   if (!pose_) throw InvalidInput("no pose model loaded: give the camera (--cam FILE) or a pose model");
   MatrixXfR images(1, input.size());
   images.row(0) = input.transpose();
   std::lock_guard<std::mutex> lock(pose_mutex_);
-  return pose_->predict(images).cameras.at(0);
+  pose_->set_flip_check(flip_check);
+  const PosePrediction p = pose_->predict(images);
+  if (flip_turn_deg) *flip_turn_deg = p.azimuth_shift.at(0);
+  return p.cameras.at(0);
 }
 
 ReconResult Reconstructor::run(const Image& image, const Image* mask, const Camera* camera,
@@ -226,7 +229,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& input, const Camera*
     r.camera = *camera;
     r.camera_estimated = false;
   } else {
-    r.camera = estimate_camera(input);
+    r.camera = estimate_camera(input, settings.flip_check, &r.flip_turn_deg);
     r.camera_estimated = true;
     r.timings.pose = since(t);
   }

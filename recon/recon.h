@@ -10,6 +10,7 @@
 #include "camera/camera.h"
 #include "camera/image.h"
 #include "core/types.h"
+#include "nets/pose_net.h"
 #include "nets/sdf_net.h"
 #include "recon/camera_refine.h"
 
@@ -45,6 +46,10 @@ struct ReconSettings {
   /// An input is refused as "only background" when fewer than this fraction of its network-image pixels differ
   /// from the white background by more than 0.05 (after alpha/mask compositing).
   double min_foreground_fraction = 0.002;
+  /// Margin of the pose model's flip check (PoseNet::set_flip_check; used when the model has an azimuth head):
+  /// the regressed camera is turned to the azimuth the head prefers when the head gives that azimuth more than
+  /// this many times the probability mass of the regressed one. 0 = the 6D head alone.
+  double flip_check = kDefaultFlipCheck;
   /// Rounds of test-time camera refinement by silhouette alignment (recon/camera_refine.h; 0 = off). Each round
   /// reconstructs a mesh at `refine_resolution` with the current camera, aligns its silhouette to the input's
   /// object mask (recon_silhouette) and continues with the refined camera; the final mesh is reconstructed with
@@ -78,6 +83,7 @@ struct ReconResult {
   Mesh mesh;                    ///< closed, object frame
   Camera camera;                ///< the camera used (137 px), after refinement when it ran
   bool camera_estimated = false;
+  double flip_turn_deg = 0;     ///< degrees the flip check turned the estimated camera about +y (0 = kept)
   Camera initial_camera;        ///< the estimated or given camera before refinement
   std::vector<CameraRefineResult> refinements;  ///< one per refinement round (empty when off)
   long evaluations = 0;         ///< field evaluations
@@ -119,8 +125,10 @@ class Reconstructor {
   /// the mask camera refinement aligns to; null = input_foreground(input).
   ReconResult run_input(const Eigen::VectorXf& input, const Camera* camera, const ReconSettings& settings,
                         const std::string& what, const Image* silhouette = nullptr) const;
-  /// Camera estimate of a network input (InvalidInput when no pose network is loaded).
-  Camera estimate_camera(const Eigen::VectorXf& input) const;
+  /// Camera estimate of a network input (InvalidInput when no pose network is loaded), with the pose model's flip
+  /// check at `flip_check` (ReconSettings::flip_check); *flip_turn_deg (may be null) gets the check's turn.
+  Camera estimate_camera(const Eigen::VectorXf& input, double flip_check = kDefaultFlipCheck,
+                         double* flip_turn_deg = nullptr) const;
 
  private:
   struct MeshStats;

@@ -67,6 +67,15 @@ TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with th
   CHECK(j["camera_source"] == "estimated");
   CHECK(j["evaluations"].get<long>() > 0);
   CHECK(j["seconds"]["total"].get<double>() > 0);
+  // The pose model's flip check: off, no turn; on, the estimate is the 6D head's camera turned by the reported
+  // angle about the vertical axis.
+  const Run off = run("recon " + img + " -o " + (dir / "est_off.obj").string() + " --res 65 --json --flip-check 0");
+  REQUIRE_MESSAGE(off.code == 0, off.err);
+  const Json j_off = Json::parse(off.out);
+  CHECK(j_off["flip_turn_deg"].get<double>() == 0.0);
+  const Camera turned = turn_about_vertical(camera_from_json(j_off["camera"]), j["flip_turn_deg"].get<double>());
+  CHECK((turned.R - camera_from_json(j["camera"]).R).norm() < 1e-6);
+  CHECK((turned.t - camera_from_json(j["camera"]).t).norm() < 1e-6);
   r = run("recon " + img + " -o " + cam + " --res 65 --cam " + kSource + "/data/examples/car_0000.json");
   REQUIRE_MESSAGE(r.code == 0, r.err);
   const Mesh m = read_mesh(est);
