@@ -16,6 +16,16 @@ using namespace sdfkit;
 
 namespace {
 
+/// A tiny network (40 px images) with a K-bin azimuth head.
+PoseNetSettings tiny_with_head(int bins) {
+  PoseNetSettings s;
+  s.width = 2;
+  s.image_size = 40;
+  s.feature = 12;
+  s.azimuth_bins = bins;
+  return s;
+}
+
 PointsF random_points(int n, uint64_t seed) {
   Rng rng(seed);
   PointsF p(n, 3);
@@ -234,11 +244,7 @@ TEST_CASE("azimuth head helpers: targets, cross-entropy, window mass and the fli
 }
 
 TEST_CASE("pose net with an azimuth head: gradients of L_cam (modulo symmetries) + weighted cross-entropy") {
-  PoseNetSettings s;
-  s.width = 2;
-  s.image_size = 40;
-  s.feature = 12;
-  s.azimuth_bins = 8;
+  const PoseNetSettings s = tiny_with_head(8);
   PoseNet net(s, true);
   net.init(11);
   Rng rng(12);
@@ -252,13 +258,14 @@ TEST_CASE("pose net with an azimuth head: gradients of L_cam (modulo symmetries)
   PoseLossOptions lo;
   lo.symmetries = &sym;
   lo.azimuth_weight = 0.7;
-  auto objective = [&] {
+  // L_cam + w CE; leaves the gradient of the evaluation in the parameter gradients.
+  auto value = [&] {
     double ce = 0;
     net.params().zero_grad();
     const double l = net.forward_backward(img, pts, truth, 1.0, lo, &ce);
     return l + lo.azimuth_weight * ce;
   };
-  objective();
+  value();
   const std::vector<float> grads(net.params().grads.begin(), net.params().grads.end());
   // The azimuth head's output bias: d/db_k = w / B sum_b (softmax_bk - y_bk), in closed form.
   const PosePrediction p = net.predict(img);
@@ -276,12 +283,6 @@ TEST_CASE("pose net with an azimuth head: gradients of L_cam (modulo symmetries)
     CHECK(grads[bias0 + k] == doctest::Approx(0.7 / 2 * expect).epsilon(1e-4));
   }
   // Every other parameter: central differences in float (loose tolerance), over the trunk and the three heads.
-  auto value = [&] {
-    double ce = 0;
-    net.params().zero_grad();
-    const double l = net.forward_backward(img, pts, truth, 1.0, lo, &ce);
-    return l + lo.azimuth_weight * ce;
-  };
   std::vector<size_t> idx = test::some_indices(net.n_params(), 40, 5);
   for (size_t k = 0; k < 20; ++k) idx.push_back(net.n_params() - 1 - 37 * k);  // the heads
   std::vector<double> analytic, numeric;
@@ -304,18 +305,14 @@ TEST_CASE("pose net with an azimuth head: gradients of L_cam (modulo symmetries)
   net.forward_backward(img, pts, truth, 1.0, lo, nullptr);
   for (size_t k = 0; k < 8; ++k) CHECK(net.params().grads[bias0 + k] == 0.0f);
   PoseNetSettings plain = s;
-  plain.azimuth_bins = 0;
+  plain.azimuth_bins = 0;  // headless
   PoseNet headless(plain, true);
   lo.azimuth_weight = 0.5;
   CHECK_THROWS_AS(headless.forward_backward(img, pts, truth, 1.0, lo, nullptr), InvalidInput);
 }
 
 TEST_CASE("pose net with an azimuth head: the flip check turns the camera, the model file keeps the head") {
-  PoseNetSettings s;
-  s.width = 2;
-  s.image_size = 40;
-  s.feature = 12;
-  s.azimuth_bins = 12;
+  PoseNetSettings s = tiny_with_head(12);
   PoseNet net(s, true);
   net.init(2);
   // Force the classifier to one bin through its output bias: every image then says "azimuth 90".
