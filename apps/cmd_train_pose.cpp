@@ -2,8 +2,8 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
-#include "nets/comm.h"
 #include "core/mesh_io.h"
+#include "nets/comm.h"
 #include "nets/pose_train.h"
 #include "sdf/prepare.h"
 #include "sdf/symmetry.h"
@@ -99,10 +99,6 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   return [o] {
     PoseTrainSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
-    if (s.net.azimuth_bins > 0 && s.net.azimuth_bins < 4)
-      throw InvalidInput("--azimuth-bins must be 0 (no head) or at least 4");
-    if (s.azimuth_weight > 0 && s.net.azimuth_bins == 0)
-      throw InvalidInput("--azimuth-weight needs --azimuth-bins > 0");
     if (o->symmetry_tol > 0) {
       const double tol = o->symmetry_tol;
       s.symmetries = [tol](const ShapeEntry& shape) {

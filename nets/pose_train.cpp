@@ -188,6 +188,9 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   require(s.steps > 0 && s.batch > 0 && s.points > 0 && s.val_every > 0 && s.val_items > 0,
           "train pose: steps, batch, points, val-every and val-items must be positive");
   require(s.lr > 0 && s.lr_min >= 0 && s.lr_min <= s.lr, "train pose: need 0 <= lr-min <= lr, lr > 0");
+  require(s.azimuth_weight >= 0 && std::isfinite(s.azimuth_weight), "train pose: the azimuth weight must be >= 0");
+  require(s.azimuth_weight == 0 || s.net.azimuth_bins > 0, "train pose: --azimuth-weight needs --azimuth-bins > 0");
+  PoseNet net(s.net, true);  // checks the network settings before any data is read
   const auto t0 = std::chrono::steady_clock::now();
   DatasetSettings ds;
   ds.root = s.data;
@@ -207,14 +210,11 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   bs.points_per_shape = s.points;
   bs.seed = s.seed;
   const BatchSampler sampler(train, bs);
-  require(s.azimuth_weight >= 0 && std::isfinite(s.azimuth_weight), "train pose: the azimuth weight must be >= 0");
-  require(s.azimuth_weight == 0 || s.net.azimuth_bins > 0, "train pose: --azimuth-weight needs --azimuth-bins > 0");
   // Each training shape's symmetry group, once (read from its files by the caller's function), in parallel.
   std::vector<std::vector<Mat3>> groups(train.size());
   if (s.symmetries)
     tbb::parallel_for(size_t(0), train.size(), [&](size_t i) { groups[i] = s.symmetries(train.shape(i)); });
 
-  PoseNet net(s.net, true);
   net.init(s.seed);
   if (!s.init.empty()) {
     const auto start = load_pose_model(s.init);

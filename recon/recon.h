@@ -21,8 +21,6 @@
 
 namespace sdfkit {
 
-class PoseNet;
-
 /// The camera refinement settings recon uses by default (see ReconSettings::refine).
 inline CameraRefineSettings recon_refine_defaults() {
   CameraRefineSettings s;

@@ -157,6 +157,20 @@ TEST_CASE("train pose gives the same model for 1 and 2 threads, and the replicas
   fs::remove_all(root);
 }
 
+TEST_CASE("train pose refuses impossible head settings before reading any data") {
+  // The data folder does not exist: a check made after loading would report it (IoError) instead.
+  PoseTrainSettings s = tiny_settings(test::scratch_dir("pose_no_data") / "missing", "unused.ckpt");
+  s.azimuth_weight = 0.1;  // without a head
+  CHECK_THROWS_AS(train_pose(s), InvalidInput);
+  s.net.azimuth_bins = 2;  // too few bins
+  CHECK_THROWS_AS(train_pose(s), InvalidInput);
+  s.net.azimuth_bins = 8;
+  s.azimuth_weight = -1;
+  CHECK_THROWS_AS(train_pose(s), InvalidInput);
+  s.azimuth_weight = 0.1;
+  CHECK_THROWS_AS(train_pose(s), IoError);  // valid settings: now the missing data is what fails
+}
+
 TEST_CASE("train pose --init starts from a given model and refuses another architecture") {
   const fs::path root = make_pose_dataset();
   PoseTrainSettings s = tiny_settings(root, (root / "start.ckpt").string());
