@@ -5,6 +5,7 @@
 #include "core/ply_io.h"
 
 #include <assimp/Importer.hpp>
+#include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
@@ -26,21 +27,84 @@
 namespace sdfkit {
 namespace {
 
-void append_node(const aiScene* scene, const aiNode* node, const aiMatrix4x4& parent, std::vector<Vec3>& V,
-                 std::vector<std::array<int32_t, 3>>& F, std::vector<Eigen::Vector3f>& C, bool& all_colored,
-                 const std::string& path) {
+/// The diffuse colour of a mesh's material: glTF's base colour factor, else the diffuse colour (OBJ's Kd). False
+/// for assimp's default material (a file without materials) or a material without either.
+bool material_diffuse(const aiScene* scene, const aiMesh* m, Eigen::Vector3f& out) {
+  if (scene->mMaterials == nullptr || m->mMaterialIndex >= scene->mNumMaterials) return false;
+  const aiMaterial* mat = scene->mMaterials[m->mMaterialIndex];
+  aiString name;
+  if (mat->Get(AI_MATKEY_NAME, name) == AI_SUCCESS && std::string(name.C_Str()) == AI_DEFAULT_MATERIAL_NAME) return false;
+  aiColor4D c;
+  if (mat->Get(AI_MATKEY_BASE_COLOR, c) != AI_SUCCESS && mat->Get(AI_MATKEY_COLOR_DIFFUSE, c) != AI_SUCCESS) return false;
+  const float rgb[3] = {c.r, c.g, c.b};
+  for (int k = 0; k < 3; ++k) {
+    if (!std::isfinite(rgb[k])) return false;
+    out[k] = std::clamp(rgb[k], 0.f, 1.f);
+  }
+  return true;
+}
+
+/// What append_node needs besides the node: the scene, the file (for messages and texture paths), the texture
+/// sampler (may be empty) and the report's texture counts.
+struct AssimpInput {
+  const aiScene* scene = nullptr;
+  std::string path;
+  const TextureSampler* textures = nullptr;
+  long* textured_parts = nullptr;
+  std::vector<std::string>* missing_textures = nullptr;
+};
+
+/// Per-vertex colours of mesh `m` from its material's diffuse (or glTF base colour) texture file, sampled at the
+/// vertices' first UV set; false when there is no such texture, no UVs, no sampler, or the texture is embedded or
+/// cannot be read (then recorded as missing).
+bool texture_colours(const AssimpInput& in, const aiMesh* m, std::vector<Eigen::Vector3f>& out) {
+  if (in.textures == nullptr || !*in.textures || !m->HasTextureCoords(0)) return false;
+  if (in.scene->mMaterials == nullptr || m->mMaterialIndex >= in.scene->mNumMaterials) return false;
+  const aiMaterial* mat = in.scene->mMaterials[m->mMaterialIndex];
+  aiString tex;
+  if (mat->GetTexture(aiTextureType_BASE_COLOR, 0, &tex) != AI_SUCCESS &&
+      mat->GetTexture(aiTextureType_DIFFUSE, 0, &tex) != AI_SUCCESS)
+    return false;
+  std::string name = tex.C_Str();
+  if (name.empty() || name[0] == '*') return false;  // embedded (GLB): not read
+  std::replace(name.begin(), name.end(), '\\', '/');
+  const std::filesystem::path file = std::filesystem::path(in.path).parent_path() / name;
+  std::vector<Eigen::Vector2f> uv(m->mNumVertices);
+  for (unsigned v = 0; v < m->mNumVertices; ++v) uv[v] = {m->mTextureCoords[0][v].x, m->mTextureCoords[0][v].y};
+  try {
+    out = (*in.textures)(file.string(), uv);
+  } catch (const Error&) {
+    if (in.missing_textures) in.missing_textures->push_back(file.string());
+    return false;
+  }
+  if (out.size() != uv.size()) return false;
+  if (in.textured_parts) ++*in.textured_parts;
+  return true;
+}
+
+void append_node(const AssimpInput& in, const aiNode* node, const aiMatrix4x4& parent, std::vector<Vec3>& V,
+                 std::vector<std::array<int32_t, 3>>& F, std::vector<Eigen::Vector3f>& C, bool& all_colored) {
+  const aiScene* scene = in.scene;
   const aiMatrix4x4 xf = parent * node->mTransformation;
   for (unsigned mi = 0; mi < node->mNumMeshes; ++mi) {
     const aiMesh* m = scene->mMeshes[node->mMeshes[mi]];
     const auto base = static_cast<int64_t>(V.size());
     const bool colored = m->HasVertexColors(0);
-    all_colored = all_colored && colored;
+    std::vector<Eigen::Vector3f> textured;
+    const bool from_texture = !colored && texture_colours(in, m, textured);
+    Eigen::Vector3f material_colour;
+    const bool from_material = !colored && !from_texture && material_diffuse(scene, m, material_colour);
+    all_colored = all_colored && (colored || from_texture || from_material);
     for (unsigned v = 0; v < m->mNumVertices; ++v) {
       const aiVector3D p = xf * m->mVertices[v];
       V.emplace_back(p.x, p.y, p.z);
       if (colored) {
         const aiColor4D c = m->mColors[0][v];
         C.emplace_back(c.r, c.g, c.b);
+      } else if (from_texture) {
+        C.push_back(textured[v]);
+      } else if (from_material) {
+        C.push_back(material_colour);
       } else {
         C.emplace_back(0.7f, 0.7f, 0.7f);
       }
@@ -51,13 +115,13 @@ void append_node(const aiScene* scene, const aiNode* node, const aiMatrix4x4& pa
       for (unsigned k = 1; k + 1 < face.mNumIndices; ++k) {  // fan (assimp already triangulated polygons)
         std::array<int64_t, 3> idx{face.mIndices[0], face.mIndices[k], face.mIndices[k + 1]};
         for (int64_t i : idx)
-          if (i < 0 || i >= m->mNumVertices) throw InvalidInput(path + ": face index out of range");
+          if (i < 0 || i >= m->mNumVertices) throw InvalidInput(in.path + ": face index out of range");
         F.push_back({static_cast<int32_t>(base + idx[0]), static_cast<int32_t>(base + idx[1]),
                      static_cast<int32_t>(base + idx[2])});
       }
     }
   }
-  for (unsigned c = 0; c < node->mNumChildren; ++c) append_node(scene, node->mChildren[c], xf, V, F, C, all_colored, path);
+  for (unsigned c = 0; c < node->mNumChildren; ++c) append_node(in, node->mChildren[c], xf, V, F, C, all_colored);
 }
 
 // ---- Structural checks before assimp ------------------------------------------------------------------------
@@ -76,16 +140,19 @@ bool parse_double(const char* s, double& out, const char** end = nullptr) {
   return true;
 }
 
-void check_vertex(const std::string& path, long i, const double* xyz) {
+// OBJ messages name the 1-based line and count vertices and faces from 1, as OBJ indices and editors do.
+void check_vertex(const std::string& path, long line, long i, const double* xyz) {
   for (int k = 0; k < 3; ++k)
     if (!std::isfinite(xyz[k]))
-      fail_input(path, "non-finite vertex coordinates (NaN or Inf) at vertex " + std::to_string(i));
+      fail_input(path, "line " + std::to_string(line) + ": non-finite coordinates (NaN or Inf) of vertex " +
+                           std::to_string(i + 1));
 }
 
-void check_index(const std::string& path, long face, long index, long nv) {
+void check_index(const std::string& path, long line, long face, long index, long written, long nv) {
   if (index < 0 || index >= nv)
-    fail_input(path, "face index out of range: face " + std::to_string(face) + " uses vertex " + std::to_string(index) +
-                         " but the file has " + std::to_string(nv) + " vertices");
+    fail_input(path, "line " + std::to_string(line) + ": face index out of range: face " + std::to_string(face + 1) + " uses vertex " +
+                         std::to_string(written) + " but the file has " + std::to_string(nv) +
+                         " vertices (OBJ indices count from 1)");
 }
 
 void check_obj(const std::string& path, const std::string& text) {
@@ -96,19 +163,21 @@ void check_obj(const std::string& path, const std::string& text) {
     if (end - pos > 2 && text[pos] == 'v' && (text[pos + 1] == ' ' || text[pos + 1] == '\t')) ++nv;
     pos = end + 1;
   }
-  long seen_v = 0, face = 0;
+  long seen_v = 0, face = 0, number = 0;
   for (size_t pos = 0; pos < text.size();) {
     size_t end = text.find('\n', pos);
     if (end == std::string::npos) end = text.size();
     const std::string line = text.substr(pos, end - pos);
     pos = end + 1;
+    ++number;
+    const std::string at = "line " + std::to_string(number) + ": ";
     if (line.size() < 2 || !(line[1] == ' ' || line[1] == '\t')) continue;
     if (line[0] == 'v') {
       double xyz[3];
       const char* c = line.c_str() + 1;
       for (double& x : xyz)
-        if (!parse_double(c, x, &c)) fail_io(path, "malformed vertex line '" + line + "'");
-      check_vertex(path, seen_v++, xyz);
+        if (!parse_double(c, x, &c)) fail_io(path, at + "malformed vertex line '" + line + "'");
+      check_vertex(path, number, seen_v++, xyz);
     } else if (line[0] == 'f') {
       const char* c = line.c_str() + 1;
       while (*c) {
@@ -116,10 +185,10 @@ void check_obj(const std::string& path, const std::string& text) {
         if (!*c) break;
         char* e = nullptr;
         const long idx = std::strtol(c, &e, 10);
-        if (e == c) fail_io(path, "malformed face line '" + line + "'");
+        if (e == c) fail_io(path, at + "malformed face line '" + line + "'");
         const long zero_based = idx > 0 ? idx - 1 : seen_v + idx;  // negative: relative to the vertices so far
-        if (idx == 0) fail_input(path, "face index 0 in '" + line + "' (OBJ indices start at 1)");
-        check_index(path, face, zero_based, nv);
+        if (idx == 0) fail_input(path, at + "face index 0 in '" + line + "' (OBJ indices start at 1)");
+        check_index(path, number, face, zero_based, idx, nv);
         c = e;
         while (*c && *c != ' ' && *c != '\t') ++c;  // skip /texture/normal
       }
@@ -234,7 +303,7 @@ void read_off(const std::string& path, std::vector<Vec3>& V, std::vector<std::ar
       fail_off(path, line, "malformed OFF vertex line '" + line.text + "' (expected " + std::to_string(wanted) +
                                " numbers: x y z" + (has_normals ? " nx ny nz" : "") + (has_colors ? " r g b" : "") + ")");
     if (!std::isfinite(x[0]) || !std::isfinite(x[1]) || !std::isfinite(x[2]))
-      fail_off(path, line, "non-finite vertex coordinates (NaN or Inf) at vertex " + std::to_string(v), false);
+      fail_off(path, line, "non-finite coordinates (NaN or Inf) of vertex " + std::to_string(v + 1), false);
     V.emplace_back(x[0], x[1], x[2]);
     if (has_colors) {
       const double* rgb = x + (has_normals ? 6 : 3);
@@ -269,9 +338,8 @@ void read_off(const std::string& path, std::vector<Vec3>& V, std::vector<std::ar
         fail_off(path, line, "malformed OFF face line '" + line.text + "' (indices are integers)");
       if (errno == ERANGE || idx < 0 || idx >= nv)
         fail_off(path, line,
-                 "face index out of range: face " + std::to_string(f) + " uses vertex " +
-                     std::string(p, static_cast<const char*>(e)) + " but the file has " + std::to_string(nv) +
-                     " vertices",
+                 "face index out of range: face " + std::to_string(f + 1) + " uses vertex " + std::string(p, static_cast<const char*>(e)) +
+                     " but the file has " + std::to_string(nv) + " vertices (OFF indices count from 0)",
                  false);
       p = e;
       if (k == 0) first = idx;
@@ -292,7 +360,9 @@ void check_stl(const std::string& path, const std::string& data) {
           float f[3];
           std::memcpy(f, data.data() + 84 + 50 * static_cast<size_t>(t) + 12 + 12 * v, 12);
           const double xyz[3] = {f[0], f[1], f[2]};
-          check_vertex(path, 3L * t + v, xyz);
+          for (const double x : xyz)
+            if (!std::isfinite(x))
+              fail_input(path, "non-finite coordinates (NaN or Inf) in triangle " + std::to_string(t + 1));
         }
       return;
     }
@@ -313,14 +383,18 @@ void check_stl(const std::string& path, const std::string& data) {
     double xyz[3];
     const char* c = data.c_str() + p + 6;
     for (double& x : xyz)
-      if (!parse_double(c, x, &c)) fail_io(path, "malformed STL vertex " + std::to_string(v));
-    check_vertex(path, v++, xyz);
+      if (!parse_double(c, x, &c)) fail_io(path, "malformed STL vertex " + std::to_string(v + 1));
+    for (const double x : xyz)
+      if (!std::isfinite(x)) fail_input(path, "non-finite coordinates (NaN or Inf) of vertex " + std::to_string(v + 1));
+    ++v;
   }
 }
 
 void check_structure(const std::string& path, const std::string& ext) {
   const std::string data = read_file(path);
   if (data.find_first_not_of(" \t\r\n") == std::string::npos) fail_io(path, "empty file");
+  if (ext == "gltf" && data.find('{') == std::string::npos) fail_io(path, "not a glTF file (no JSON object)");
+  if (ext == "glb" && data.compare(0, 4, "glTF") != 0) fail_io(path, "not a binary glTF file (no 'glTF' magic)");
   if (ext == "obj") check_obj(path, data);
   else if (ext == "stl") check_stl(path, data);
 }
@@ -367,9 +441,10 @@ void weld_identical_vertices(std::vector<Vec3>& V, std::vector<Eigen::Vector3f>&
   C.swap(C2);
 }
 
-/// OBJ and STL: sdfkit's structural checks, then assimp.
+/// OBJ, STL, glTF and GLB: sdfkit's structural checks, then assimp.
 void read_with_assimp(const std::string& path, const std::string& ext, std::vector<Vec3>& V,
-                      std::vector<std::array<int32_t, 3>>& F, std::vector<Eigen::Vector3f>& C, bool& all_colored) {
+                      std::vector<std::array<int32_t, 3>>& F, std::vector<Eigen::Vector3f>& C, bool& all_colored,
+                      const TextureSampler& textures, MeshReport& report) {
   check_structure(path, ext);
   Assimp::Importer importer;
   // Keep lines/points out, keep every face as is: sdfkit counts degenerate faces itself.
@@ -384,20 +459,56 @@ void read_with_assimp(const std::string& path, const std::string& ext, std::vect
     if (why.rfind(path, 0) == 0) throw IoError(why);  // assimp already named the file
     throw IoError(path + ": " + why);
   }
-  append_node(scene, scene->mRootNode, aiMatrix4x4(), V, F, C, all_colored, path);
+  AssimpInput in;
+  in.scene = scene;
+  in.path = path;
+  in.textures = &textures;
+  in.textured_parts = &report.textured_parts;
+  in.missing_textures = &report.missing_textures;
+  append_node(in, scene->mRootNode, aiMatrix4x4(), V, F, C, all_colored);
 }
 
 }  // namespace
 
 bool has_mesh_extension(const std::string& path) {
   const std::string e = extension_of(path);
-  return e == "obj" || e == "ply" || e == "off" || e == "stl";
+  return e == "obj" || e == "ply" || e == "off" || e == "stl" || e == "gltf" || e == "glb";
 }
 
-Mesh read_mesh(const std::string& path, MeshReport* report) {
+UpAxis parse_up_axis(const std::string& name) {
+  const std::string n = !name.empty() && name[0] == '+' ? name.substr(1) : name;
+  if (n == "y" || n == "Y") return UpAxis::kY;
+  if (n == "z" || n == "Z") return UpAxis::kZ;
+  if (n == "x" || n == "X") return UpAxis::kX;
+  throw InvalidInput("up axis '" + name + "': use y, z or x");
+}
+
+std::string up_axis_name(UpAxis up) {
+  switch (up) {
+    case UpAxis::kY: return "y";
+    case UpAxis::kZ: return "z";
+    case UpAxis::kX: return "x";
+  }
+  return "y";
+}
+
+Mesh to_y_up(const Mesh& mesh, UpAxis up) {
+  Mesh out = mesh;
+  if (up == UpAxis::kY) return out;
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
+    const double x = mesh.V(i, 0), y = mesh.V(i, 1), z = mesh.V(i, 2);
+    if (up == UpAxis::kZ)
+      out.V.row(i) << x, z, -y;
+    else
+      out.V.row(i) << -y, x, z;
+  }
+  return out;
+}
+
+Mesh read_mesh(const std::string& path, MeshReport* report, const TextureSampler& textures) {
   const std::string ext = extension_of(path);
   if (!has_mesh_extension(path))
-    throw IoError(path + ": unknown mesh extension '." + ext + "' (expected .obj, .ply, .off or .stl)");
+    throw IoError(path + ": unknown mesh extension '." + ext + "' (expected .obj, .ply, .off, .stl, .gltf or .glb)");
   if (!std::filesystem::is_regular_file(path)) throw IoError(path + ": no such file");
   if (ext == "ply") {
     // Our own reader (core/ply_io.h): assimp 5.2 misreads some valid binary PLYs.
@@ -428,10 +539,11 @@ Mesh read_mesh(const std::string& path, MeshReport* report) {
   std::vector<std::array<int32_t, 3>> F;
   std::vector<Eigen::Vector3f> C;
   bool all_colored = true;
+  MeshReport texture_report;
   if (ext == "off") {
     read_off(path, V, F, C, all_colored);
   } else {
-    read_with_assimp(path, ext, V, F, C, all_colored);
+    read_with_assimp(path, ext, V, F, C, all_colored, textures, texture_report);
   }
   weld_identical_vertices(V, C, F, all_colored);
   Mesh mesh;
@@ -444,7 +556,12 @@ Mesh read_mesh(const std::string& path, MeshReport* report) {
     mesh.colors.resize(static_cast<Eigen::Index>(C.size()), 3);
     for (size_t i = 0; i < C.size(); ++i) mesh.colors.row(static_cast<Eigen::Index>(i)) = C[i].transpose();
   }
-  return validate_mesh(mesh, path, report);
+  Mesh valid = validate_mesh(mesh, path, report);
+  if (report != nullptr) {
+    report->textured_parts = texture_report.textured_parts;
+    report->missing_textures = std::move(texture_report.missing_textures);
+  }
+  return valid;
 }
 
 void check_face_indices(const Mesh& mesh, const std::string& what) {
@@ -580,8 +697,37 @@ void write_mesh(const std::string& path, const Mesh& mesh) {
       for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
         o << "3 " << mesh.F(f, 0) << ' ' << mesh.F(f, 1) << ' ' << mesh.F(f, 2) << '\n';
     });
+  } else if (ext == "stl") {
+    // Binary STL: 80-byte header, triangle count, then per triangle the unit normal, 3 vertices (float32,
+    // little-endian) and a zero attribute word. Degenerate faces get a zero normal.
+    write_file_atomic(path, [&](std::ostream& o) {
+      char header[80] = {};
+      std::snprintf(header, sizeof header, "sdfkit binary STL");
+      o.write(header, sizeof header);
+      const auto put_u32 = [&](uint32_t v) {
+        const unsigned char b[4] = {static_cast<unsigned char>(v), static_cast<unsigned char>(v >> 8),
+                                    static_cast<unsigned char>(v >> 16), static_cast<unsigned char>(v >> 24)};
+        o.write(reinterpret_cast<const char*>(b), 4);
+      };
+      const auto put_f32 = [&](double d) {
+        const float f = static_cast<float>(d);
+        uint32_t v = 0;
+        std::memcpy(&v, &f, 4);
+        put_u32(v);
+      };
+      put_u32(static_cast<uint32_t>(mesh.F.rows()));
+      for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+        const Vec3 a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+        Vec3 n = (b - a).cross(c - a);
+        const double len = n.norm();
+        n = len > 0 ? Vec3(n / len) : Vec3::Zero();
+        for (const Vec3& p : {n, a, b, c})
+          for (int k = 0; k < 3; ++k) put_f32(p[k]);
+        o.write("\0\0", 2);
+      }
+    });
   } else {
-    throw InvalidInput(path + ": cannot write mesh with extension '." + ext + "' (use .obj, .ply or .off)");
+    throw InvalidInput(path + ": cannot write mesh with extension '." + ext + "' (use .obj, .ply, .off or .stl)");
   }
 }
 

@@ -127,6 +127,7 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
   write_mesh(files.gt, gt);
   Json j = normalization_to_json(norm);
   j["source"] = source;
+  j["up"] = up_axis_name(settings.up);  // the source file's up axis, turned to +y before normalising
   if (!hash.empty()) j["source_hash"] = hash;
   j["frame"] = "object = (source - norm[0:3]) / norm[3]";
   j["mesh"] = {{"vertices", mesh.num_vertices()},
@@ -169,7 +170,7 @@ PrepareStatus prepare_shape(const std::string& mesh_path, const std::string& sha
     return st;
   }
   MeshReport report;
-  const Mesh mesh = read_mesh(mesh_path, &report);
+  const Mesh mesh = to_y_up(read_mesh(mesh_path, &report), settings.up);
   return prepare_impl(mesh, mesh_path, fnv1a_hex(read_file(mesh_path)), &report, shape_dir, settings, progress);
 }
 

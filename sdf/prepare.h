@@ -25,6 +25,7 @@ struct PrepareSettings {
   GtSource gt = GtSource::Auto;
   double gt_iso = 0.003;  ///< DISN's level for the iso-surface ground truth
   bool overwrite = false; ///< redo a shape even when its norm.json exists
+  UpAxis up = UpAxis::kY; ///< the mesh file's up axis (prepare_shape turns it to +y first; norm.json records it)
 };
 
 struct PrepareStatus {

@@ -25,18 +25,125 @@ Mesh tetra() {
   m.F << 0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3;
   return m;
 }
+
+std::string base64(const std::string& bytes) {
+  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (size_t i = 0; i < bytes.size(); i += 3) {
+    const unsigned b0 = static_cast<unsigned char>(bytes[i]);
+    const unsigned b1 = i + 1 < bytes.size() ? static_cast<unsigned char>(bytes[i + 1]) : 0;
+    const unsigned b2 = i + 2 < bytes.size() ? static_cast<unsigned char>(bytes[i + 2]) : 0;
+    const unsigned v = (b0 << 16) | (b1 << 8) | b2;
+    out += k[(v >> 18) & 63];
+    out += k[(v >> 12) & 63];
+    out += i + 1 < bytes.size() ? k[(v >> 6) & 63] : '=';
+    out += i + 2 < bytes.size() ? k[v & 63] : '=';
+  }
+  return out;
+}
+
+/// The tetrahedron as a glTF 2.0 file with an embedded buffer and a material of base colour `rgb`.
+std::string tetra_gltf(const float rgb[3]) {
+  const Mesh t = tetra();
+  std::string buf;
+  for (int i = 0; i < 4; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const float f = static_cast<float>(t.V(i, k));
+      buf.append(reinterpret_cast<const char*>(&f), 4);
+    }
+  for (int f = 0; f < 4; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const uint16_t v = static_cast<uint16_t>(t.F(f, k));
+      buf.append(reinterpret_cast<const char*>(&v), 2);
+    }
+  char colour[96];
+  std::snprintf(colour, sizeof colour, "[%g, %g, %g, 1]", rgb[0], rgb[1], rgb[2]);
+  return std::string(R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+"meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
+"materials": [{"pbrMetallicRoughness": {"baseColorFactor": )") + colour + R"(}}],
+"buffers": [{"byteLength": 72, "uri": "data:application/octet-stream;base64,)" + base64(buf) + R"("}],
+"bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 24}],
+"accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 1]},
+              {"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}]})";
+}
 }  // namespace
+
+TEST_CASE("glTF: a tetrahedron reads with its faces and its material's base colour") {
+  const fs::path dir = test::scratch_dir("core_gltf");
+  fs::create_directories(dir);
+  const float rgb[3] = {0.25f, 0.5f, 0.75f};
+  const std::string path = (dir / "t.gltf").string();
+  write_text_atomic(path, tetra_gltf(rgb));
+  const Mesh m = read_mesh(path);
+  CHECK(m.num_vertices() == 4);
+  CHECK(m.num_faces() == 4);
+  REQUIRE(m.has_colors());
+  for (int k = 0; k < 3; ++k) CHECK(m.colors(0, k) == doctest::Approx(rgb[k]));
+  double volume = 0;  // closed, outward: the tetrahedron's volume 1/6
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    volume += m.V.row(m.F(f, 0)).dot(m.V.row(m.F(f, 1)).cross(m.V.row(m.F(f, 2)))) / 6.0;
+  CHECK(std::abs(volume) == doctest::Approx(1.0 / 6.0));
+  write_text_atomic((dir / "bad.glb").string(), "not a glb at all");
+  CHECK_THROWS_WITH_AS(read_mesh((dir / "bad.glb").string()), doctest::Contains("bad.glb"), IoError);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("OBJ materials: Kd becomes the vertex colour, an OBJ without materials has none") {
+  const fs::path dir = test::scratch_dir("core_objmtl");
+  fs::create_directories(dir);
+  write_text_atomic((dir / "t.mtl").string(), "newmtl red\nKd 0.9 0.1 0.2\nnewmtl blue\nKd 0.1 0.2 0.8\n");
+  write_text_atomic((dir / "t.obj").string(),
+                    "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nusemtl red\nf 1 3 2\nf 1 2 4\n"
+                    "usemtl blue\nf 1 4 3\nf 2 3 4\n");
+  const Mesh m = read_mesh((dir / "t.obj").string());
+  REQUIRE(m.has_colors());
+  CHECK(m.num_faces() == 4);
+  int red = 0, blue = 0;
+  for (Eigen::Index i = 0; i < m.colors.rows(); ++i) {
+    red += std::abs(m.colors(i, 0) - 0.9f) < 1e-6f && std::abs(m.colors(i, 2) - 0.2f) < 1e-6f;
+    blue += std::abs(m.colors(i, 0) - 0.1f) < 1e-6f && std::abs(m.colors(i, 2) - 0.8f) < 1e-6f;
+  }
+  CHECK(red > 0);
+  CHECK(blue > 0);
+  CHECK(red + blue == m.colors.rows());
+  write_text_atomic((dir / "plain.obj").string(), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  CHECK_FALSE(read_mesh((dir / "plain.obj").string()).has_colors());
+  fs::remove_all(dir);
+}
+
+TEST_CASE("up axes: z-up and x-up meshes turn to +y by proper rotations") {
+  const Mesh t = tetra();
+  const Mesh z = to_y_up(t, UpAxis::kZ), x = to_y_up(t, UpAxis::kX);
+  // The file's up axis (vertex 3 for z, vertex 1 for x) becomes +y.
+  CHECK((z.V.row(3) - Eigen::RowVector3d(0, 1, 0)).norm() < 1e-12);
+  CHECK((x.V.row(1) - Eigen::RowVector3d(0, 1, 0)).norm() < 1e-12);
+  for (const Mesh* m : {&z, &x}) {  // lengths and the signed volume (orientation) are kept
+    double volume = 0;
+    for (Eigen::Index f = 0; f < m->F.rows(); ++f)
+      volume += m->V.row(m->F(f, 0)).dot(m->V.row(m->F(f, 1)).cross(m->V.row(m->F(f, 2))));
+    double ref = 0;
+    for (Eigen::Index f = 0; f < t.F.rows(); ++f) ref += t.V.row(t.F(f, 0)).dot(t.V.row(t.F(f, 1)).cross(t.V.row(t.F(f, 2))));
+    CHECK(volume == doctest::Approx(ref));
+  }
+  CHECK((to_y_up(t, UpAxis::kY).V - t.V).norm() == 0);
+  CHECK(parse_up_axis("+z") == UpAxis::kZ);
+  CHECK_THROWS_AS(parse_up_axis("w"), InvalidInput);
+}
 
 TEST_CASE("mesh writers and the reader round-trip every format") {
   const fs::path dir = test::scratch_dir("core_meshio");
   fs::create_directories(dir);
   Mesh m = tetra();
   m.colors = Colors::Constant(4, 3, 0.5f);
-  for (const char* ext : {"obj", "ply", "off"}) {
+  for (const char* ext : {"obj", "ply", "off", "stl"}) {
+    CAPTURE(ext);
     const std::string path = (dir / (std::string("t.") + ext)).string();
     write_mesh(path, m);
     const Mesh back = read_mesh(path);
-    CHECK(back.num_vertices() == 4);
+    if (std::string(ext) == "stl")  // STL stores each triangle's corners: 4 to 12 vertices after reading
+      CHECK((back.num_vertices() >= 4 && back.num_vertices() <= 12));
+    else
+      CHECK(back.num_vertices() == 4);
     CHECK(back.num_faces() == 4);
     // Same triangles as point triples (the reader may reorder vertices).
     double area_in = 0, area_out = 0;
@@ -116,7 +223,9 @@ TEST_CASE("reader: broken files give clear errors naming the file (assimp alone 
       {"empty.stl", "", "empty file", true},
       {"nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", "non-finite", false},
       {"inf.off", "OFF\n3 1 0\n0 0 0\n1 0 0\ninf 1 0\n3 0 1 2\n", "non-finite", false},
-      {"index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", "out of range", false},
+      {"index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n",
+       "line 5: face index out of range: face 2 uses vertex 7 but the file has 3 vertices (OBJ indices count from 1)",
+       false},
       {"negative.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -9\n", "out of range", false},
       {"index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n", "out of range", false},
       {"short.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n", "truncated", true},
@@ -223,7 +332,7 @@ TEST_CASE("OFF: hostile counts and broken lines are errors naming the file and t
       {"OFF\n2000000000 1 0\n" + tri + "3 0 1 2\n", "line 2: truncated OFF file (2000000000 vertices", true},
       {"OFF\n-3 1 0\n" + tri + "3 0 1 2\n", "line 2: malformed OFF counts line", true},
       {"OFF\nthree 1 0\n" + tri + "3 0 1 2\n", "line 2: malformed OFF counts line", true},
-      {"OFF\n# c\n3 1 0\n" + tri + "\n3 0 1 9\n", "line 8: face index out of range: face 0 uses vertex 9", false},
+      {"OFF\n# c\n3 1 0\n" + tri + "\n3 0 1 9\n", "line 8: face index out of range: face 1 uses vertex 9 but the file has 3 vertices (OFF indices count from 0)", false},
       {"OFF\n3 1 0\n" + tri + "3 0 1 -1\n", "line 6: face index out of range", false},
       {"OFF\n3 1 0\n" + tri + "3 0 1 99999999999999999999999\n", "line 6: face index out of range", false},
       {"OFF\n3 1 0\n" + tri + "3 0 1\n", "line 6: truncated OFF face line", true},
@@ -231,7 +340,7 @@ TEST_CASE("OFF: hostile counts and broken lines are errors naming the file and t
       {"OFF\n3 1 0\n" + tri + "3 0 1.5 2\n", "line 6: malformed OFF face line", true},
       {"OFF\n3 1 0\n" + tri + "x 0 1 2\n", "line 6: malformed OFF face line", true},
       {"OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n", "line 4: malformed OFF vertex line", true},
-      {"OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", "line 4: non-finite vertex coordinates", false},
+      {"OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", "line 4: non-finite coordinates (NaN or Inf) of vertex 2", false},
       {"4OFF\n3 1 0\n0 0 0 0\n1 0 0 0\n0 1 0 0\n3 0 1 2\n", "line 1: unsupported OFF variant '4OFF'", true},
       {"OFF BINARY\n", "line 1: binary OFF is not supported", true},
       {"PLY\n3 1 0\n" + tri + "3 0 1 2\n", "line 1: not an OFF file", true},

@@ -44,6 +44,25 @@ TEST_CASE("prepare: writes the four files, norm.json last, complete shapes are s
   fs::remove_all(dir);
 }
 
+TEST_CASE("prepare --up z: a z-up file is turned to +y before normalising, and norm.json says so") {
+  const fs::path dir = test::scratch_dir("prepare_up");
+  fs::remove_all(dir);
+  const std::string src = (dir / "src" / "tall.obj").string();
+  write_mesh(src, make_box(Vec3(0, 0, 0), Vec3(1, 1, 4)));  // tall along the file's z
+  PrepareSettings s;
+  s.samples.count = 500;
+  s.grid.voxel_size = 0.04;
+  s.up = UpAxis::kZ;
+  prepare_shape(src, (dir / "z").string(), s);
+  const ShapeFiles f((dir / "z").string());
+  CHECK(read_json(f.norm)["up"] == "z");
+  const Mesh gt = read_mesh(f.gt);
+  const Eigen::RowVector3d extent = gt.V.colwise().maxCoeff() - gt.V.colwise().minCoeff();
+  CHECK(extent.y() == doctest::Approx(4 * extent.x()).epsilon(1e-6));  // the long side is now the height
+  CHECK(extent.z() == doctest::Approx(extent.x()).epsilon(1e-6));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("prepare: an open box gets the iso-surface as ground truth, closed by the winding-number sign") {
   const fs::path dir = test::scratch_dir("prepare_open");
   fs::remove_all(dir);
