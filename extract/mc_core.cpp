@@ -1,6 +1,7 @@
 #include "extract/mc_core.h"
 
 #include "core/error.h"
+#include "core/union_find.h"
 
 #include <algorithm>
 #include <cassert>
@@ -406,12 +407,8 @@ Mesh McBuilder::finish(const Vec3& origin, double voxel, MarchingCubesStats* sta
 
 Mesh McBuilder::finish(const std::function<Vec3(const Vec3&)>& index_to_world, MarchingCubesStats* stats) const {
   const size_t nv = vertices_.size();
-  std::vector<int32_t> rep(nv);
-  for (size_t v = 0; v < nv; ++v) rep[v] = static_cast<int32_t>(v);
-  auto find = [&](int32_t v) {
-    while (rep[v] != v) v = rep[v] = rep[rep[v]];
-    return v;
-  };
+  UnionFind reps(nv);  // merged vertices; the smallest id represents its set
+  auto find = [&reps](int32_t v) { return reps.find(v); };
   std::vector<Vec3> positions = vertices_;
   long collapsed = 0;
   if (stats_.snapped_vertices > 0) {
@@ -458,7 +455,7 @@ Mesh McBuilder::finish(const std::function<Vec3(const Vec3&)>& index_to_world, M
         std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
         if (common.size() != ap.size() || !std::equal(common.begin(), common.end(), ap.begin())) continue;
         const int32_t keep = std::min(ra, rb), gone = std::max(ra, rb);  // smallest id represents
-        rep[gone] = keep;
+        reps.unite(ra, rb);
         auto& mk = members[keep];
         auto& mg = members[gone];
         mk.insert(mk.end(), mg.begin(), mg.end());

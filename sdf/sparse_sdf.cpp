@@ -1,6 +1,7 @@
 #include "sdf/sparse_sdf.h"
 
 #include "core/error.h"
+#include "core/union_find.h"
 #include "sdf/band_triangle.h"
 #include "sdf/distance.h"
 #include "sdf/mesh_queries.h"
@@ -45,28 +46,6 @@ using openvdb::Coord;
 using openvdb::FloatGrid;
 using openvdb::FloatTree;
 using LeafT = FloatTree::LeafNodeType;
-
-/// Union-find over a small index range (path halving, union by smaller root index: deterministic).
-struct UnionFind {
-  std::vector<int32_t> parent;
-  explicit UnionFind(size_t n) : parent(n) {
-    for (size_t i = 0; i < n; ++i) parent[i] = static_cast<int32_t>(i);
-  }
-  int32_t find(int32_t x) {
-    while (parent[x] != x) {
-      parent[x] = parent[parent[x]];
-      x = parent[x];
-    }
-    return x;
-  }
-  void unite(int32_t a, int32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a == b) return;
-    if (a < b) std::swap(a, b);
-    parent[a] = b;
-  }
-};
 
 /// Components of items connected by "no surface between them" edges; for each, decide inside/outside by
 /// probing the winding number at a few members, falling back to every member when the probes disagree or
@@ -386,7 +365,7 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
         for (size_t wi = range.begin(); wi != range.end(); ++wi) {
           const auto li = static_cast<size_t>(which[wi]);
           const LeafT& leaf = *leaves[li];
-          for (size_t i = 0; i < LeafT::SIZE; ++i) uf.parent[i] = static_cast<int32_t>(i);
+          uf.reset(LeafT::SIZE);
           const float* v = leaf.buffer().data();
           for (int32_t x = 0; x < D; ++x)
             for (int32_t y = 0; y < D; ++y)
@@ -420,20 +399,10 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
     // takes their verdict; the leaves of any other component are decided leaf by leaf as above. A closed
     // shell's band then costs a handful of probes instead of a few per leaf.
     {
-      std::vector<int32_t> parent(nl * static_cast<size_t>(S));
-      std::iota(parent.begin(), parent.end(), 0);
       // Union by smaller root: a set's root is its smallest index whatever the order of the unions.
-      auto find = [&parent](int32_t x) {
-        while (parent[x] != x) x = parent[x] = parent[parent[x]];
-        return x;
-      };
-      auto unite = [&](int32_t a, int32_t b) {
-        a = find(a);
-        b = find(b);
-        if (a == b) return;
-        if (a < b) std::swap(a, b);
-        parent[a] = b;
-      };
+      UnionFind sets(nl * static_cast<size_t>(S));
+      auto find = [&sets](int32_t x) { return sets.find(x); };
+      auto unite = [&sets](int32_t a, int32_t b) { sets.unite(a, b); };
       tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 8), [&](const auto& range) {
         for (size_t li = range.begin(); li != range.end(); ++li) {
           const float* v = leaves[li]->buffer().data();
@@ -475,9 +444,9 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
             }
         }
       }
-      const auto n = static_cast<int32_t>(parent.size());
+      const auto n = static_cast<int32_t>(sets.size());
       // Components in order of their smallest voxel index; members listed in index order.
-      std::vector<int32_t> comp(parent.size());
+      std::vector<int32_t> comp(sets.size());
       std::vector<int32_t> starts;
       for (int32_t i = 0; i < n; ++i) {
         const int32_t r = find(i);
@@ -495,13 +464,12 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
         for (auto& c : starts) total += std::exchange(c, total);
         starts.push_back(total);
       }
-      std::vector<int32_t> members(parent.size());
+      std::vector<int32_t> members(sets.size());
       {
         std::vector<int32_t> fill(starts.begin(), starts.end() - 1);
         for (int32_t i = 0; i < n; ++i) members[fill[comp[i]]++] = i;
       }
-      parent.clear();
-      parent.shrink_to_fit();
+      sets = UnionFind();  // free the per-voxel table before the probes
       std::vector<char> undecided(static_cast<size_t>(nc), 0);
       auto position = [&](int32_t g) { return voxel_position(*leaves[static_cast<size_t>(g / S)], g % S); };
       auto value = [&](int32_t g) { return leaves[static_cast<size_t>(g / S)]->buffer().data()[g % S]; };
