@@ -38,6 +38,8 @@ std::vector<ShapeEntry> plan_benchmark(const SynthSettings& s) {
   require(s.per_category >= 1 && s.per_category <= 100000,
           "synth: --per-category must be between 1 and 100000 (got " + std::to_string(s.per_category) + ")");
   require(s.jobs >= 0, "synth: --jobs must be >= 0");
+  require(s.split_base >= 0 && s.split_base <= s.per_category,
+          "synth: --split-base must be between 0 and --per-category (got " + std::to_string(s.split_base) + ")");
   std::vector<size_t> cats;
   if (s.categories.empty()) {
     for (size_t c = 0; c < categories().size(); ++c) cats.push_back(c);
@@ -75,6 +77,13 @@ Split split_indices(int n, uint64_t seed, size_t category) {
   std::sort(s.train.begin(), s.train.end());
   std::sort(s.val.begin(), s.val.end());
   std::sort(s.test.begin(), s.test.end());
+  return s;
+}
+
+Split category_split(const SynthSettings& settings, size_t category) {
+  const int base = settings.split_base > 0 ? settings.split_base : settings.per_category;
+  Split s = split_indices(base, settings.seed, category);
+  for (int i = base; i < settings.per_category; ++i) s.train.push_back(i);
   return s;
 }
 
@@ -148,7 +157,7 @@ SynthSummary write_benchmark(const std::string& dir, const SynthSettings& settin
   std::ostringstream train, val, test;
   Json jc = Json::array();
   for (const size_t c : cats) {
-    const Split s = split_indices(settings.per_category, settings.seed, c);
+    const Split s = category_split(settings, c);
     const std::string& name = categories()[c].name;
     for (const int i : s.train) train << name << '/' << shape_id(c, i) << '\n';
     for (const int i : s.val) val << name << '/' << shape_id(c, i) << '\n';
@@ -169,6 +178,7 @@ SynthSummary write_benchmark(const std::string& dir, const SynthSettings& settin
               {"format", 1},
               {"seed", settings.seed},
               {"per_category", settings.per_category},
+              {"split_base", settings.split_base > 0 ? settings.split_base : settings.per_category},
               {"up", "+y"},
               {"front", "+z"},
               {"mesh_format", "binary PLY, polygon soup of closed parts, per-vertex colours"},

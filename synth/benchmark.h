@@ -15,6 +15,11 @@ struct SynthSettings {
   uint64_t seed = 0;                    ///< everything written is a function of this seed
   std::vector<std::string> categories;  ///< names or synset ids; empty = all 13
   int jobs = 0;                         ///< worker threads; 0 = all cores (output does not depend on it)
+  /// Val and test are drawn from the first `split_base` shapes of each category as for a benchmark of that size;
+  /// shapes from index `split_base` on all go to train. 0 = per_category. A larger training set then keeps the
+  /// val and test shapes of the smaller benchmark (e.g. 300 per category with split_base 100 scores on the same
+  /// test shapes as the 100-shape benchmark).
+  int split_base = 0;
 };
 
 /// One shape of the benchmark.
@@ -41,6 +46,9 @@ struct Split {
   std::vector<int> train, val, test;
 };
 Split split_indices(int n, uint64_t seed, size_t category);
+/// The split of `settings` for one category: split_indices(split_base) plus indices split_base..per_category-1 in
+/// train.
+Split category_split(const SynthSettings& settings, size_t category);
 
 struct SynthSummary {
   long shapes = 0;

@@ -19,6 +19,7 @@ Image contact_sheet(const SynthSettings& settings, const SheetSettings& sheet) {
   require(sheet.distance > 1.0, "contact sheet: the camera distance must exceed the unit sphere's radius");
   SynthSettings s = settings;
   s.per_category = std::min(settings.per_category, sheet.per_category);
+  s.split_base = 0;  // the sheet shows shapes, not splits
   const std::vector<ShapeEntry> plan = plan_benchmark(s);
   std::vector<size_t> rows;
   for (const auto& e : plan)

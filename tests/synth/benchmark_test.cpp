@@ -70,6 +70,29 @@ TEST_CASE("splits are 80/10/10, disjoint, complete and seeded") {
   CHECK(split_indices(1, 1, 0).train.size() == 1);
 }
 
+TEST_CASE("split_base: a larger training set keeps the val and test shapes of the smaller benchmark") {
+  SynthSettings small;
+  small.per_category = 20;
+  small.seed = 3;
+  SynthSettings big = small;
+  big.per_category = 60;
+  big.split_base = 20;
+  for (size_t c : {size_t(0), size_t(6)}) {
+    const Split a = category_split(small, c), b = category_split(big, c);
+    CHECK(b.test == a.test);
+    CHECK(b.val == a.val);
+    REQUIRE(b.train.size() == a.train.size() + 40);
+    CHECK(std::equal(a.train.begin(), a.train.end(), b.train.begin()));
+    for (int i = 0; i < 40; ++i) CHECK(b.train[a.train.size() + i] == 20 + i);
+    // Without a base, the 60 shapes are split afresh: the test shapes are not those of the 20-shape benchmark.
+    SynthSettings fresh = big;
+    fresh.split_base = 0;
+    CHECK(category_split(fresh, c).test.size() == 6);
+  }
+  big.split_base = 61;
+  CHECK_THROWS_AS(plan_benchmark(big), sdfkit::InvalidInput);
+}
+
 TEST_CASE("plans: ids, per-shape seeds independent of the benchmark size") {
   SynthSettings s;
   s.per_category = 2;

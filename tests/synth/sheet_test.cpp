@@ -51,6 +51,9 @@ TEST_CASE("contact sheet: one labelled row per category, every shape visible ins
   // Deterministic.
   const Image again = contact_sheet(s, sh);
   CHECK(again.data == im.data);
+  // A split base larger than the sheet's shapes per category changes nothing on the sheet (it shows shapes).
+  s.split_base = 4;
+  CHECK(contact_sheet(s, sh).data == im.data);
   sh.cell = 4;
   CHECK_THROWS_AS(contact_sheet(s, sh), sdfkit::InvalidInput);
 }
