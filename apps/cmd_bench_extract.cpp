@@ -85,13 +85,13 @@ std::function<int()> setup_bench_extract(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   app.add_option("--res", o->resolutions, "final grid points per axis (2^k + 1), e.g. --res 129 257")
-      ->check(CLI::Range(3, 2049));
+      ->check(in_range(3, 2049));
   app.add_option("--shapes", o->shapes, "analytic shapes: sphere, chair")->check(CLI::IsMember({"sphere", "chair"}));
-  app.add_option("--coarse", o->coarse, "coarse grid points per axis of the adaptive method")->check(CLI::Range(2, 2049));
-  app.add_option("--runs", o->runs, "timed runs per method (the median is reported)")->check(CLI::Range(1, 100));
-  app.add_option("--band", o->band, "half width (voxels) of the sparse band grid")->check(CLI::Range(1.0, 100.0));
+  app.add_option("--coarse", o->coarse, "coarse grid points per axis of the adaptive method")->check(in_range(2, 2049));
+  app.add_option("--runs", o->runs, "timed runs per method (the median is reported)")->check(in_range(1, 100));
+  app.add_option("--band", o->band, "half width (voxels) of the sparse band grid")->check(in_range(1.0, 100.0));
   app.add_option("--samples", o->samples, "surface samples per mesh for the distance to the analytic surface")
-      ->check(CLI::Range(1000L, 10000000L));
+      ->check(in_range(1000L, 10000000L));
   app.add_option("-o,--out", o->out, "folder to write the extracted meshes to (<shape>_<res>_<method>.ply)");
   app.add_flag("--json", o->json, "print the results as JSON");
   return [o] {

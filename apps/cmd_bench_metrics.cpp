@@ -47,11 +47,11 @@ std::function<int()> setup_bench_metrics(CLI::App& app) {
     uint64_t seed = 1;
   };
   auto o = std::make_shared<Opts>();
-  app.add_option("--emd-points", o->emd_points, "points per set for the EMD timings")->check(CLI::Range(2L, 20000L));
+  app.add_option("--emd-points", o->emd_points, "points per set for the EMD timings")->check(in_range(2L, 20000L));
   app.add_option("--cd-points", o->cd_points, "points per set for the Chamfer timings")
-      ->check(CLI::Range(10L, 10000000L));
+      ->check(in_range(10L, 10000000L));
   app.add_option("--repeats", o->repeats, "timed runs per measurement (the median is reported)")
-      ->check(CLI::Range(1, 1000));
+      ->check(in_range(1, 1000));
   app.add_flag("!--no-hungarian", o->hungarian, "skip the dense O(n^3) Hungarian baseline (slow for n > 2000)");
   app.add_flag("!--no-approx", o->approx, "skip DISN's approximate matcher (about 2 s per run at 2048 points)");
   app.add_option("--seed", o->seed, "seed of the sampled point sets");

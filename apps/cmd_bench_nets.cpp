@@ -71,10 +71,10 @@ std::function<int()> setup_bench_nets(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   app.add_option("--reps", o->reps, "timed repetitions per measurement (median reported)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_option("--gemm", o->gemm, "side of the square GEMM that defines the peak")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_flag("--json", o->json, "print JSON");
   return [o] {
     // Everything single-threaded: the reference is the single-core GEMM peak.

@@ -66,7 +66,8 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
     int repeats = 3;
     int dense_res = 257;
     long band_points = 10000;
-    std::string json_out, sign = "auto";
+    std::string sign = "auto";
+    bool json = false;
     double band = 0.0;
     bool no_dense = false;
     std::string only;
@@ -76,17 +77,17 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
   app.add_option("meshes", o->meshes, "extra meshes to time (default: the built-in 50k closed mesh and soup, and "
                                       "data/examples/meshes/*)");
   app.add_option("--repeats", o->repeats, "timed runs per shape and thread count (median reported)")
-      ->check(CLI::PositiveNumber)
+      ->check(positive())
       ->capture_default_str();
   app.add_option("--dense-res", o->dense_res, "resolution of the dense baseline grid over [-1.2, 1.2]^3")
-      ->check(CLI::Range(2, 1025))
+      ->check(in_range(2, 1025))
       ->capture_default_str();
   app.add_option("--band-points", o->band_points, "random band points for the error against brute force")
-      ->check(CLI::NonNegativeNumber)
+      ->check(non_negative())
       ->capture_default_str();
   app.add_flag("--no-dense", o->no_dense, "skip the dense baseline");
   app.add_option("--band", o->band, "grid band half-width as in `sdfkit prep --band` (0 = 3 voxels)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(non_negative())
       ->capture_default_str();
   app.add_option("--sign", o->sign, "sign method as in `sdfkit prep --sign`: auto or winding")
       ->check(CLI::IsMember({"auto", "winding"}))
@@ -95,8 +96,9 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
                "also report the memory of the same active voxels in non-standard OpenVDB trees with 4^3 leaves "
                "(5,4,2 and 4,3,2 log2 node sizes; such trees are not FloatGrids other tools read)");
   app.add_option("--only", o->only, "time only the shapes whose name contains this text (e.g. torus, soup)");
-  app.add_option("--json", o->json_out, "also write the results as JSON to this file");
+  app.add_flag("--json", o->json, "print the results as JSON on stdout (the table then goes to stderr)");
   return [o] {
+    std::FILE* text = o->json ? stderr : stdout;
     std::vector<Shape> shapes = {{"closed torus 51k", bench_closed()}, {"soup 10 spheres 51k", bench_soup()}};
     std::vector<std::string> files = o->meshes;
     if (files.empty()) {
@@ -112,7 +114,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
                    shapes.end());
     const fs::path tmp = fs::temp_directory_path() / ("sdfkit_bench_prep_" + std::to_string(::getpid()));
     Json results = Json::array();
-    std::printf("%-22s %7s %5s %8s %8s %8s %8s %10s %8s %8s %9s %9s %9s %9s %9s %8s\n", "shape", "tris", "sign",
+    std::fprintf(text, "%-22s %7s %5s %8s %8s %8s %8s %10s %8s %8s %9s %9s %9s %9s %9s %8s\n", "shape", "tris", "sign",
                 "1thr s", "1thr cpu", "2thr s", "2thr cpu", "voxels", "% 257^3", "grid MB", "257^3 MB", "dense s",
                 "dense cpu", "mean err", "max err", "sign ok");
     for (const auto& sh : shapes) {
@@ -224,17 +226,17 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
       const long side = std::lround(2.4 / s.grid.voxel_size) + 1;
       const long lattice = side * side * side;
       const double pct = 100.0 * static_cast<double>(st.active_voxels) / static_cast<double>(lattice);
-      std::printf("%-22s %7ld %5s %8.3f %8.3f %8.3f %8.3f %10ld %7.2f%% %8.2f %9.1f %9.2f %9.2f %9.5f %9.5f %7.2f%%\n",
+      std::fprintf(text, "%-22s %7ld %5s %8.3f %8.3f %8.3f %8.3f %10ld %7.2f%% %8.2f %9.1f %9.2f %9.2f %9.5f %9.5f %7.2f%%\n",
                   sh.name.c_str(), static_cast<long>(sh.mesh.F.rows()),
                   st.sign == SignMethod::PseudoNormal ? "pn" : "wn", m1, median(c1), m2, median(c2),
                   st.active_voxels, pct, st.grid_bytes / 1e6, lattice * 4e-6, dense_s, dense_cpu, mean_err, max_err,
                   100.0 * sign_ok / std::max<double>(1, static_cast<double>(P.rows())));
-      std::printf("  stages (wall s, last 1-thread run): mesh %.3f | grid: setup %.3f band %.3f insert %.3f sign %.3f (%ld probes) | "
+      std::fprintf(text, "  stages (wall s, last 1-thread run): mesh %.3f | grid: setup %.3f band %.3f insert %.3f sign %.3f (%ld probes) | "
                   "samples %.3f (%ld candidates) | gt %.3f | files %.3f\n",
                   st.seconds_mesh, st.grid.seconds_setup, st.grid.seconds_topology, st.grid.seconds_exact,
                   st.grid.seconds_sign, st.grid.winding_evaluations, st.seconds_samples, st.samples.candidates, st.seconds_gt, st.seconds_files);
       if (o->tree_memory)
-        std::printf("  same active voxels in non-standard trees with 4^3 leaves: 5,4,2 %.2f MB | 4,3,2 %.2f MB "
+        std::fprintf(text, "  same active voxels in non-standard trees with 4^3 leaves: 5,4,2 %.2f MB | 4,3,2 %.2f MB "
                     "(standard 5,4,3 FloatGrid %.2f MB)\n", tree542_mb, tree432_mb, st.grid_bytes / 1e6);
       std::fflush(stdout);
       results.push_back({{"shape", sh.name},
@@ -277,11 +279,11 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
     }
     std::error_code ec;
     fs::remove_all(tmp, ec);
-    std::printf("voxel %.6f, band %.6f (%s), 32768 samples; sign pn = pseudo-normal, wn = winding number; dense "
+    std::fprintf(text, "voxel %.6f, band %.6f (%s), 32768 samples; sign pn = pseudo-normal, wn = winding number; dense "
                 "baseline = exact distance + winding sign at %d^3 points; peak RSS of the process %.0f MB\n",
                 2.4 / 256, o->band > 0 ? o->band : 3 * 2.4 / 256, o->band > 0 ? "--band" : "3 voxels", o->dense_res,
                 peak_rss_mb());
-    if (!o->json_out.empty()) write_json(o->json_out, results);
+    if (o->json) std::cout << results.dump(2) << '\n';
     return int(kOk);
   };
 }

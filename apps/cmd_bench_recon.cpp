@@ -34,8 +34,8 @@ std::function<int()> setup_bench_recon(CLI::App& app) {
     bool json = false;
   };
   auto o = std::make_shared<Opts>();
-  o->model = std::string(SDFKIT_SOURCE_DIR) + "/data/models/sdf.ckpt";
-  o->pose_model = std::string(SDFKIT_SOURCE_DIR) + "/data/models/pose.ckpt";
+  o->model = default_model_path("sdf.ckpt");
+  o->pose_model = default_model_path("pose.ckpt");
   app.add_option("--data", o->data, "prepared dataset with views and gt.obj")->required();
   app.add_option("--split", o->split, "split name or list file")->capture_default_str();
   app.add_option("--shapes", o->shapes, "shapes (view 0 of each) to reconstruct")->capture_default_str();
@@ -61,7 +61,8 @@ std::function<int()> setup_bench_recon(CLI::App& app) {
     const Dataset data(ds);
     const bool est = o->cam == "est";
     if (!est && o->cam != "gt") throw InvalidInput("--cam " + o->cam + ": use gt or est");
-    const auto rec = Reconstructor::load(o->model, est ? o->pose_model : std::string());
+    const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
+                                         est ? require_model_path(o->pose_model, "--pose-model") : std::string());
     metrics::ProtocolSettings ps;
     ps.protocol = metrics::Protocol::disn;
     ps.with_emd = false;

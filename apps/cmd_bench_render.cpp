@@ -62,9 +62,9 @@ std::function<int()> setup_bench_render(CLI::App& app) {
   app.add_option("--mesh", o->mesh,
                  "mesh to render, used as it is (default: a torus of exactly 50,000 triangles in the unit sphere)");
   app.add_option("--reps", o->reps, "repetitions per configuration (medians are reported)")
-      ->check(CLI::Range(1, 1000))
+      ->check(in_range(1, 1000))
       ->capture_default_str();
-  app.add_option("--views", o->views, "views per repetition")->check(CLI::Range(1, 1000))->capture_default_str();
+  app.add_option("--views", o->views, "views per repetition")->check(in_range(1, 1000))->capture_default_str();
   app.add_option("--seed", o->seed, "seed of the view set")->capture_default_str();
   app.add_flag("--json", o->json, "print the results as JSON");
   return [o] {

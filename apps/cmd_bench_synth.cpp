@@ -37,11 +37,11 @@ std::function<int()> setup_bench_synth(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   app.add_option("-n,--per-category", o->per_category, "shapes per category (100 = the full preset)")
-      ->check(CLI::Range(1, 100000))
+      ->check(in_range(1, 100000))
       ->capture_default_str();
-  app.add_option("--reps", o->reps, "repetitions (medians are reported)")->check(CLI::Range(1, 1000))->capture_default_str();
+  app.add_option("--reps", o->reps, "repetitions (medians are reported)")->check(in_range(1, 1000))->capture_default_str();
   app.add_option("-j,--jobs", o->jobs, "threads of the parallel run (0 = all cores)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(non_negative())
       ->capture_default_str();
   app.add_option("--seed", o->seed, "benchmark seed")->capture_default_str();
   app.add_flag("--json", o->json, "print the results as JSON");

@@ -215,12 +215,12 @@ std::function<int()> setup_bench_train(CLI::App& app) {
   app.add_option("--threads", o->threads, "comma-separated thread counts")->capture_default_str();
   app.add_option("--steps", o->steps, "timed steps per run (median reported)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  app.add_option("--warmup", o->warmup, "untimed steps before them")->capture_default_str()->check(CLI::NonNegativeNumber);
+      ->check(positive());
+  app.add_option("--warmup", o->warmup, "untimed steps before them")->capture_default_str()->check(non_negative());
   app.add_option("--gemm", o->gemm, "side of the square GEMMs that define the peak")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  app.add_option("--reps", o->reps, "GEMM repetitions (median)")->capture_default_str()->check(CLI::PositiveNumber);
+      ->check(positive());
+  app.add_option("--reps", o->reps, "GEMM repetitions (median)")->capture_default_str()->check(positive());
   app.add_flag("--json", o->json, "print JSON on stdout");
   return [o] {
     std::vector<TrainConfig> configs;

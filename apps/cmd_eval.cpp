@@ -76,11 +76,24 @@ std::string find_prediction(const fs::path& dir, const std::string& shape) {
 
 struct Opts {
   std::string pred, gt, protocol = "disn", emd = "exact", out, split;
+  bool emd_given = false, split_given = false, jobs_given = false;
   uint64_t seed = 0;
   bool json = false, csv = false, no_emd = false, no_iou = false;
   int jobs = 0;
   long samples = 0;
 };
+
+/// A flag that does not apply under the chosen protocol or mode is an error, not silently ignored.
+void check_flags_apply(const Opts& o, bool folders) {
+  const Protocol p = parse_protocol(o.protocol);
+  if (p == Protocol::onet && (o.emd_given || o.no_emd))
+    throw InvalidInput(std::string(o.emd_given ? "--emd" : "--no-emd") +
+                       " does not apply to --protocol onet, which reports no EMD");
+  if (p == Protocol::tmnet && o.no_iou)
+    throw InvalidInput("--no-iou does not apply to --protocol tmnet, which reports no IoU");
+  if (!folders && o.split_given) throw InvalidInput("--split applies to folders, not to a pair of files");
+  if (!folders && o.jobs_given) throw InvalidInput("--jobs applies to folders, not to a pair of files");
+}
 
 ProtocolSettings settings_of(const Opts& o) {
   ProtocolSettings s;
@@ -267,27 +280,34 @@ std::function<int()> setup_eval(CLI::App& app) {
                  "CD x1000, EMD mean x100")
       ->check(CLI::IsMember({"disn", "onet", "tmnet"}));
   app.add_option("--seed", o->seed, "seed of every random draw (same seed, same numbers)");
-  app.add_option("--emd", o->emd, "exact (certified optimal matching, default) or approx (DISN's approximate matcher)")
+  CLI::Option* emd_opt = app.add_option("--emd", o->emd, "exact (certified optimal matching, default) or approx (DISN's approximate matcher)")
       ->check(CLI::IsMember({"exact", "approx"}));
   app.add_option("--samples", o->samples, "points per shape instead of the protocol's own count")
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_flag("--no-emd", o->no_emd, "skip EMD (reported as null)");
   app.add_flag("--no-iou", o->no_iou, "skip IoU (reported as null)");
   auto* json = app.add_flag("--json", o->json, "JSON output (pair: the result; folders: the summary)");
   app.add_flag("--csv", o->csv, "CSV output (pair: one row; folders: one row per shape)")->excludes(json);
-  app.add_option("--split", o->split,
+  CLI::Option* split_opt = app.add_option("--split", o->split,
                  "folders: score only the <category>/<shape> entries of this split (a name looked up as GT/NAME.lst, "
                  "or a list file); other shapes are not counted as missing");
-  app.add_option("--jobs", o->jobs, "shapes scored in parallel in folder mode (default: all cores)")
-      ->check(CLI::NonNegativeNumber);
+  CLI::Option* jobs_opt = app.add_option("--jobs", o->jobs, "shapes scored in parallel in folder mode (default: all cores)")
+      ->check(non_negative());
   app.add_option("-o,--out", o->out,
                  "pair: write the output to this file instead of stdout; folders: write per_shape.csv, table.md and "
                  "summary.json into this folder");
-  return [o] {
+  return [o, emd_opt, split_opt, jobs_opt] {
+    o->emd_given = emd_opt->count() > 0;
+    o->split_given = split_opt->count() > 0;
+    o->jobs_given = jobs_opt->count() > 0;
     const bool pd = fs::is_directory(o->pred), gd = fs::is_directory(o->gt);
-    if (pd != gd && gd && !fs::exists(o->pred)) return run_folders(*o);  // every prediction missing
+    if (pd != gd && gd && !fs::exists(o->pred)) {  // every prediction missing
+      check_flags_apply(*o, true);
+      return run_folders(*o);
+    }
     if (pd != gd)
       throw InvalidInput("PRED and GT must both be files or both be folders (got " + o->pred + " and " + o->gt + ")");
+    check_flags_apply(*o, gd);
     return gd ? run_folders(*o) : run_pair(*o);
   };
 }

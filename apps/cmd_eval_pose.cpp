@@ -31,7 +31,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--points", o->e.points, "seeded sample points per shape (DISN: 2048)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_option("--views", o->e.views, "first N views of each shape (-1 = all)")->capture_default_str();
   app.add_option("--seed", o->e.seed, "seed of the point draw")->capture_default_str();
   app.add_flag("--symmetry", o->symmetry,
@@ -41,12 +41,12 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                  "a turn is a symmetry when every vertex and face centre of gt.obj lands within this distance "
                  "(object units) of gt.obj")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_option("--flip-check", o->flip_check,
                  "models with an azimuth head: turn the regressed camera to another azimuth when the head gives it "
                  "more than this many times the probability mass of the regressed one (0 = off: the 6D head alone)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app.add_flag("--json", o->json, "print JSON (overall + per category) instead of text");
   return [o] {
     const auto t0 = std::chrono::steady_clock::now();

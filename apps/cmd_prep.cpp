@@ -2,6 +2,7 @@
 // Thin: gathers the shape list, maps flags onto sdfkit::PrepareSettings, runs sdfkit::prepare_shape per shape
 // (TBB, --jobs), writes manifest.json and prints a summary. See docs/prep.md.
 #include "apps/command.h"
+#include "camera/texture.h"
 #include "camera/views.h"
 #include "core/error.h"
 #include "core/files.h"
@@ -138,7 +139,7 @@ std::vector<ShapeJob> gather(const std::string& input) {
 
 std::function<int()> setup_prep(CLI::App& app) {
   struct Opts {
-    std::string input, out, shard, gt = "auto", sign = "auto";
+    std::string input, out, shard, gt = "auto", sign = "auto", up = "y";
     double voxel = 2.4 / 256, band = 0.0, uniform_share = 0.0;
     long samples = 32768;
     int views = 24, jobs = 0;
@@ -147,17 +148,17 @@ std::function<int()> setup_prep(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   app.add_option("input", o->input,
-                 "a mesh (.obj .ply .off .stl), a folder (categories = sub-folders, shape id = file stem), or a list "
+                 "a mesh (.obj .ply .off .stl .gltf .glb), a folder (categories = sub-folders, shape id = file stem), or a list "
                  "file (one mesh path per line, optionally 'category<TAB>path')")
       ->required();
   app.add_option("-o,--out", o->out, "output dataset folder (<out>/<category>/<shape>/...)")->required();
   app.add_option("--voxel", o->voxel, "voxel size in object units (default 2.4/256 = DISN's 257^3 grid over [-1.2,1.2]^3)")
-      ->check(CLI::PositiveNumber)
+      ->check(positive())
       ->capture_default_str();
   app.add_option("--band", o->band,
                  "half-width of the stored narrow band in object units; 0 = 3 voxels (samples are exact and need no "
                  "wide band; 0.12 stores every |sdf - 0.003| <= 0.1 in the grid as DISN's dense grids do)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(non_negative())
       ->capture_default_str();
   app.add_option("--sign", o->sign,
                  "inside/outside test: auto (pseudo-normals for closed one-part meshes, else winding numbers), "
@@ -165,25 +166,29 @@ std::function<int()> setup_prep(CLI::App& app) {
       ->check(CLI::IsMember({"auto", "winding"}))
       ->capture_default_str();
   app.add_option("--samples", o->samples, "training samples per shape, in four equal bins on d = sdf - 0.003")
-      ->check(CLI::NonNegativeNumber)
+      ->check(non_negative())
       ->capture_default_str();
   app.add_option("--uniform-share", o->uniform_share,
                  "fraction of the samples drawn uniformly in [-1.2,1.2]^3 for far-field supervision")
-      ->check(CLI::Range(0.0, 1.0))
+      ->check(in_range(0.0, 1.0))
       ->capture_default_str();
   app.add_option("--views", o->views,
                  "rendered views per shape into <shape>/views/NN.png + NN.json (camera/views.h defaults: 137 px, "
                  "azimuth 0-360, elevation 25-30, distance 2.45-3.0; 0 = none)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(non_negative())
       ->capture_default_str();
   app.add_option("--gt", o->gt, "ground truth gt.obj: auto (input if closed and one part, else iso-surface), input, iso")
       ->check(CLI::IsMember({"auto", "input", "iso"}))
       ->capture_default_str();
   app.add_option("-j,--jobs", o->jobs, "shapes prepared in parallel, each using the worker threads (0 = all cores)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app.add_option("--shard", o->shard, "i/n: prepare only shapes whose index modulo n is i (sorted by category/shape)");
   app.add_option("--seed", o->seed, "sample seed (each shape derives its own stream from seed and category/shape)")
       ->capture_default_str();
+  app.add_option("--up", o->up, "the meshes' up axis: y (ShapeNet's, sdfkit's), z (Blender's, most CAD tools') or x; "
+                 "turned to +y before anything else")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"y", "z", "x"}));
   app.add_flag("--overwrite", o->overwrite, "redo shapes that are already complete");
   app.add_flag("-q,--quiet", o->quiet, "print only the summary line");
   return [o] {
@@ -197,6 +202,7 @@ std::function<int()> setup_prep(CLI::App& app) {
         throw InvalidInput("--shard '" + o->shard + "': expected i/n with 0 <= i < n");
     }
     PrepareSettings s;
+    s.up = parse_up_axis(o->up);
     s.grid.voxel_size = o->voxel;
     s.grid.band = o->band;
     s.grid.sign = o->sign == "winding" ? SignMethod::WindingNumber : SignMethod::Auto;
@@ -263,7 +269,10 @@ std::function<int()> setup_prep(CLI::App& app) {
               complete = fs::is_regular_file(vdir / (view_name(k, o->views) + ".json"));
             if (!complete || o->overwrite) {
               const Normalization norm = normalization_from_json(read_json(ShapeFiles(dir).norm));
-              render_view_set(apply_normalization(read_mesh(j.path), norm), vdir.string(), view_settings,
+              // Colours from vertex colours, else the materials' textures (one sampler per shape: its cache of
+              // decoded images lives as long as the shape) or diffuse colours.
+              const Mesh coloured = to_y_up(read_mesh(j.path, nullptr, image_texture_sampler()), mine.up);
+              render_view_set(apply_normalization(coloured, norm), vdir.string(), view_settings,
                               mine.samples.seed);
             }
           }

@@ -29,7 +29,14 @@ bool is_image_path(const std::string& p) {
   return std::find(kImageExtensions.begin(), kImageExtensions.end(), e) != kImageExtensions.end();
 }
 
-/// IMAGE, a folder of images (sorted, not recursive; *_mask.* and *.preview.* files skipped), or a list file
+const std::vector<std::string> kMeshOutExtensions = {"obj", "ply", "off", "stl"};
+
+bool is_mesh_out_path(const std::string& p) {
+  const std::string e = extension_of(p);
+  return std::find(kMeshOutExtensions.begin(), kMeshOutExtensions.end(), e) != kMeshOutExtensions.end();
+}
+
+/// IMAGE, a folder of images (sorted, not recursive; *_mask.*, *.mask.* and *.preview.* files skipped), or a list file
 /// (one path per line, relative to the list's folder).
 std::vector<std::string> collect_inputs(const std::string& input) {
   std::vector<std::string> out;
@@ -39,6 +46,7 @@ std::vector<std::string> collect_inputs(const std::string& input) {
       if (!e.is_regular_file() || !is_image_path(p)) continue;
       if (stem.size() > 5 && stem.substr(stem.size() - 5) == "_mask") continue;
       if (stem.size() > 8 && stem.substr(stem.size() - 8) == ".preview") continue;
+      if (stem.size() > 5 && stem.substr(stem.size() - 5) == ".mask") continue;
       out.push_back(p);
     }
     std::sort(out.begin(), out.end());
@@ -63,9 +71,23 @@ std::vector<std::string> collect_inputs(const std::string& input) {
   return {input};
 }
 
+/// Flags that do not apply to the chosen mode are errors, not silently ignored.
+void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool local, bool dense, bool mask) {
+  const auto given = [&](const std::string& name) { return app.get_option(name)->count() > 0; };
+  for (const char* f : {"--refine-res", "--refine-mode", "--refine-sweep", "--refine-sweep-step", "--refine-local"})
+    if (!refine && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-camera");
+  for (const char* f : {"--refine-distance", "--refine-evals", "--refine-max-deg", "--refine-max-distance"})
+    if (!local && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-local");
+  for (const char* f : {"--pose-model", "--flip-check"})
+    if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
+  if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
+  for (const char* f : {"--segment", "--box"})
+    if (mask && given(f)) throw InvalidInput(std::string(f) + " does not apply with --mask (the mask gives the object)");
+}
+
 std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
-    std::string input, out, model, pose_model, cam = "est", mask, format = "obj";
+    std::string input, out, model, pose_model, cam = "est", mask, format = "obj", segment = "auto", framing = "auto", box;
     ReconSettings s;
     bool json = false, no_preview = false;
     int jobs = 1;
@@ -73,20 +95,37 @@ std::function<int()> setup_recon(CLI::App& app) {
     bool refine = false;
   };
   auto o = std::make_shared<Opts>();
-  o->model = std::string(SDFKIT_SOURCE_DIR) + "/data/models/sdf.ckpt";
-  o->pose_model = std::string(SDFKIT_SOURCE_DIR) + "/data/models/pose.ckpt";
+  o->model = default_model_path("sdf.ckpt");
+  o->pose_model = default_model_path("pose.ckpt");
   app.add_option("input", o->input,
-                 "an image (PNG/JPG/EXR/TIFF, any size, RGB or RGBA), a folder of images, or a .txt/.lst list of "
-                 "image paths. Transparent pixels are composited on white (the training renders' background); "
-                 "images without alpha are used as they are")
+                 "an image (PNG/JPG/EXR/TIFF/BMP, any size and aspect ratio, grey, RGB or RGBA), a folder of images, "
+                 "or a .txt/.lst list of image paths. The object is found (alpha, --mask, a plain background, or "
+                 "GrabCut: --segment), composited on white and cropped like the training renders (--framing)")
       ->required();
   app.add_option("-o,--out", o->out,
-                 "output: MESH.obj/.ply for one image, else a folder receiving <name>.obj (or .ply) per image; "
-                 "a preview <name>.preview.png is written beside each mesh")
+                 "output: a mesh path (.obj, .ply, .off, .stl) for one image; for a folder or list, a folder "
+                 "receiving <name>.<--format> per image. Beside each mesh: <name>.preview.png and the object mask "
+                 "used, <name>.mask.png")
       ->required();
-  app.add_option("--model", o->model, "SDF network model")->capture_default_str();
-  app.add_option("--pose-model", o->pose_model, "camera pose network model (used with --cam est)")
+  app.add_option("--model", o->model,
+                 "SDF network model (default: sdf.ckpt of the model folder: $SDFKIT_MODEL_DIR, else "
+                 "<sdfkit's folder>/../share/sdfkit/models)")
       ->capture_default_str();
+  app.add_option("--pose-model", o->pose_model, "camera pose network model (used with --cam est; default: pose.ckpt there)")
+      ->capture_default_str();
+  app.add_option("--segment", o->segment,
+                 "without alpha or --mask: auto = a plain background detected from the image border, else GrabCut; "
+                 "grabcut = always GrabCut (seeded from the border or --box); none = use the image as it is "
+                 "(non-white pixels are the object)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "grabcut", "none"}));
+  app.add_option("--box", o->box, "X,Y,W,H: the object lies inside this pixel box (GrabCut's seed; outside is background)");
+  app.add_option("--framing", o->framing,
+                 "auto = keep an image framed like the training renders (square, object centred at their scale), "
+                 "else crop a square around the object and scale it to their framing; always = always crop; "
+                 "none = never (the whole image, padded to a square)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "always", "none"}));
   app.add_option("--cam", o->cam,
                  "est = estimate the camera with the pose network; a camera JSON file (views/NN.json format) for "
                  "every image; sidecar = IMAGE's own <name>.json")
@@ -101,19 +140,21 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_option("--keep-fraction", o->s.min_component_fraction,
                  "drop mesh components with fewer faces than this fraction of the largest (DISN: 0.3)")
       ->capture_default_str();
-  app.add_option("--format", o->format, "mesh format in folder mode: obj or ply")->capture_default_str();
+  CLI::Option* format_opt = app.add_option("--format", o->format, "mesh format in folder mode: obj, ply, off or stl")
+      ->capture_default_str()
+      ->check(CLI::IsMember(kMeshOutExtensions));
   app.add_option("--flip-check", o->s.flip_check,
                  "pose models with an azimuth head: turn the estimated camera to the azimuth the head prefers when it "
                  "gives that azimuth more than this many times the probability of the regressed one (0 = off)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app.add_flag("--refine-camera", o->refine,
                "test-time camera refinement (opt-in, docs/recon.md): reconstruct coarsely (--refine-res) for camera "
                "candidates turned in azimuth within +-(--refine-sweep) degrees, keep the one whose mesh's "
                "silhouette best overlaps the input's object mask (alpha, --mask, else non-white pixels), then "
                "reconstruct with it");
   app.add_option("--refine-rounds", o->s.refine_rounds, "refinement rounds (implies --refine-camera when > 0)")
-      ->check(CLI::Range(0, 5));
+      ->check(in_range(0, 5));
   app.add_option("--refine-res", o->s.refine_resolution, "grid resolution of the meshes refinement scores")
       ->capture_default_str();
   app.add_option("--refine-mode", o->refine_mode,
@@ -124,43 +165,58 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_option("--refine-sweep", o->s.refine.sweep_azimuth_deg,
                  "azimuth turns tried: -this..+this degrees (0 = none)")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 180.0));
+      ->check(in_range(0.0, 180.0));
   app.add_option("--refine-sweep-step", o->s.refine.sweep_step_deg, "step of the azimuth sweep in degrees")
       ->capture_default_str()
-      ->check(CLI::Range(1.0, 90.0));
+      ->check(in_range(1.0, 90.0));
   app.add_flag("--refine-local", o->s.refine.local_search,
                "after the sweep, a bounded Nelder-Mead search over the rotation (and with --refine-distance the "
                "distance) around the best candidate");
   app.add_flag("--refine-distance", o->s.refine.refine_distance, "the local search also changes the camera distance");
   app.add_option("--refine-evals", o->s.refine.max_evaluations, "objective evaluations of the local search")
       ->capture_default_str()
-      ->check(CLI::Range(1, 100000));
+      ->check(in_range(1, 100000));
   app.add_option("--refine-max-deg", o->s.refine.max_rotation_deg, "local search bound of each rotation component")
       ->capture_default_str()
-      ->check(CLI::Range(0.1, 90.0));
+      ->check(in_range(0.1, 90.0));
   app.add_option("--refine-max-distance", o->s.refine.max_distance_change,
                  "local search bound of the camera distance: ratio within [1/(1+c), 1+c]")
       ->capture_default_str()
-      ->check(CLI::Range(0.01, 1.0));
+      ->check(in_range(0.01, 1.0));
   app.add_flag("--no-preview", o->no_preview, "do not write the preview PNG");
   app.add_option("-j,--jobs", o->jobs, "images reconstructed in parallel (each also uses the worker threads)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_flag("--json", o->json, "print per-image results (camera, timings per stage, evaluations) as JSON");
-  return [o] {
+  return [o, format_opt, &app] {
     const std::vector<std::string> inputs = collect_inputs(o->input);
-    const std::string out_ext = extension_of(o->out);
-    const bool single_file = inputs.size() == 1 && (out_ext == "obj" || out_ext == "ply" || out_ext == "off");
-    if (o->format != "obj" && o->format != "ply") throw InvalidInput("--format " + o->format + ": use obj or ply");
-    if (!o->mask.empty() && inputs.size() != 1) throw InvalidInput("--mask applies to a single input image");
+    const bool many = fs::is_directory(o->input) || inputs.size() > 1 || !is_image_path(o->input);
+    const bool mesh_out = is_mesh_out_path(o->out);
+    if (!many && !mesh_out)
+      throw InvalidInput("-o " + o->out + ": give a mesh path ending in .obj, .ply, .off or .stl for one image");
+    if (many && mesh_out)
+      throw InvalidInput("-o " + o->out + ": " + o->input + " holds " + std::to_string(inputs.size()) +
+                         " images; give a folder for their meshes");
+    if (many && fs::exists(o->out) && !fs::is_directory(o->out))
+      throw InvalidInput("-o " + o->out + ": exists and is not a folder");
+    if (!many && fs::is_directory(o->out)) throw InvalidInput("-o " + o->out + ": is a folder, not a mesh path");
+    if (!many && format_opt->count() > 0)
+      throw InvalidInput("--format applies to a folder or list of images; for one image the extension of -o chooses");
+    if (!o->box.empty() && many) throw InvalidInput("--box applies to a single input image");
+    if (!o->mask.empty() && many) throw InvalidInput("--mask applies to a single input image");
     o->s.preview = !o->no_preview;
     o->s.refine_joint = o->refine_mode == "joint";
+    o->s.framing.segment = parse_segmentation(o->segment);
+    o->s.framing.reframe = parse_reframing(o->framing);
+    if (!o->box.empty()) o->s.framing.box = parse_pixel_box(o->box);
     if (o->refine && o->s.refine_rounds == 0) o->s.refine_rounds = 1;
     const bool estimate = o->cam == "est";
+    check_flags_apply(app, estimate, o->s.refine_rounds > 0, o->s.refine.local_search, o->s.dense, !o->mask.empty());
     const bool sidecar = o->cam == "sidecar";
     Camera fixed_camera;
     if (!estimate && !sidecar) fixed_camera = read_camera(o->cam);
-    const auto rec = Reconstructor::load(o->model, estimate ? o->pose_model : std::string());
+    const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
+                                         estimate ? require_model_path(o->pose_model, "--pose-model") : std::string());
     Image mask;
     if (!o->mask.empty()) mask = read_image(o->mask);
 
@@ -169,8 +225,8 @@ std::function<int()> setup_recon(CLI::App& app) {
     std::vector<std::string> mesh_paths(inputs.size()), clash(inputs.size());
     std::map<std::string, size_t> owner;
     for (size_t i = 0; i < inputs.size(); ++i) {
-      mesh_paths[i] = single_file ? o->out
-                                  : (fs::path(o->out) / (fs::path(inputs[i]).stem().string() + "." + o->format)).string();
+      mesh_paths[i] = !many ? o->out
+                            : (fs::path(o->out) / (fs::path(inputs[i]).stem().string() + "." + o->format)).string();
       const auto [it, fresh] = owner.emplace(fs::path(mesh_paths[i]).lexically_normal().string(), i);
       if (!fresh)
         clash[i] = inputs[i] + ": its output " + mesh_paths[i] + " is also the output of " + inputs[it->second] +
@@ -179,7 +235,6 @@ std::function<int()> setup_recon(CLI::App& app) {
 
     std::vector<Json> results(inputs.size());
     std::vector<int> failed(inputs.size(), 0);
-    std::mutex io;
     ProgressBar bar("recon", static_cast<long>(inputs.size()));
     auto one = [&](size_t i) {
       const std::string& in = inputs[i];
@@ -188,8 +243,8 @@ std::function<int()> setup_recon(CLI::App& app) {
         if (!clash[i].empty()) throw InvalidInput(clash[i]);
         const std::string stem = fs::path(in).stem().string();
         const std::string& mesh_path = mesh_paths[i];
-        const std::string preview_path =
-            (fs::path(mesh_path).parent_path() / (fs::path(mesh_path).stem().string() + ".preview.png")).string();
+        const fs::path base = fs::path(mesh_path).parent_path() / fs::path(mesh_path).stem();
+        const std::string preview_path = base.string() + ".preview.png", mask_path = base.string() + ".mask.png";
         const Image img = read_image(in);
         Camera cam;
         const Camera* cam_ptr = nullptr;
@@ -200,11 +255,27 @@ std::function<int()> setup_recon(CLI::App& app) {
           cam_ptr = &fixed_camera;
         }
         const ReconResult r = rec->run(img, o->mask.empty() ? nullptr : &mask, cam_ptr, o->s, in);
+        for (const std::string& w : r.framing.warnings) bar.print_line(stderr, "sdfkit: warning: " + in + ": " + w);
         write_mesh(mesh_path, r.mesh);
-        if (o->s.preview) write_image(preview_path, r.preview);
+        if (o->s.preview) {
+          write_image(preview_path, r.preview);
+          write_image(mask_path, r.framing.mask);
+        }
         j["mesh"] = mesh_path;
-        if (o->s.preview) j["preview"] = preview_path;
-        j["camera"] = camera_to_json(r.camera);
+        if (o->s.preview) {
+          j["preview"] = preview_path;
+          j["mask"] = mask_path;
+        }
+        const FramedInput& fr = r.framing;
+        j["framing"] = {{"mask_source", fr.mask_source},
+                        {"reframed", fr.reframed},
+                        {"crop", {{"x", fr.x0}, {"y", fr.y0}, {"side", fr.side}}},
+                        {"object_box", {fr.object_box.x, fr.object_box.y, fr.object_box.w, fr.object_box.h}},
+                        {"extent", fr.extent},
+                        {"image_size", {img.width, img.height}}};
+        j["warnings"] = fr.warnings;
+        j["camera"] = camera_to_json(r.input_camera);
+        j["network_camera"] = camera_to_json(r.camera);
         j["camera_source"] = r.camera_estimated ? "estimated" : "given";
         if (r.camera_estimated) j["flip_turn_deg"] = r.flip_turn_deg;
         if (!r.refinements.empty()) {
@@ -217,7 +288,9 @@ std::function<int()> setup_recon(CLI::App& app) {
                               {"sweep_azimuth_deg", rr.sweep_azimuth_deg},
                               {"evaluations", rr.evaluations},
                               {"seconds", rr.seconds}});
-          j["camera_refinement"] = {{"initial_camera", camera_to_json(r.initial_camera)}, {"rounds", rounds}};
+          j["camera_refinement"] = {
+              {"initial_camera", camera_to_json(camera_in_input(r.initial_camera, fr, img.width, img.height))},
+              {"rounds", rounds}};
         }
         j["evaluations"] = r.evaluations;
         j["vertices"] = r.mesh.num_vertices();
@@ -230,10 +303,10 @@ std::function<int()> setup_recon(CLI::App& app) {
                         {"field", t.field},     {"extract", t.extract}, {"cleanup", t.cleanup},
                         {"refine", t.refine},   {"preview", t.preview}, {"total", t.total}};
         if (!o->json) {
-          std::lock_guard<std::mutex> lock(io);
-          std::cout << in << " -> " << mesh_path << " (" << r.mesh.num_faces() << " faces, " << r.evaluations
-                    << " evaluations, " << t.total << " s" << (o->s.preview ? ", preview " + preview_path : "")
-                    << ")\n";
+          std::ostringstream line;
+          line << in << " -> " << mesh_path << " (" << r.mesh.num_faces() << " faces, " << r.evaluations
+               << " evaluations, " << t.total << " s" << (o->s.preview ? ", preview " + preview_path : "") << ")";
+          bar.print_line(stdout, line.str());
         }
       } catch (const std::exception& e) {
         failed[i] = 1;
@@ -241,8 +314,7 @@ std::function<int()> setup_recon(CLI::App& app) {
         for (char& c : msg)
           if (c == '\n' || c == '\r') c = ' ';
         j["error"] = msg;
-        std::lock_guard<std::mutex> lock(io);
-        std::cerr << "sdfkit: error: " << msg << '\n';
+        bar.print_line(stderr, "sdfkit: error: " + msg);
       }
       results[i] = std::move(j);
       bar.tick();

@@ -1,6 +1,7 @@
 // `sdfkit render MESH -o DIR`: a DISN-like view set of one mesh (NN.png + NN.json, optional depth/normal maps
 // and occlusion masks), the same files `sdfkit prep` writes into <shape>/views/.
 #include "apps/command.h"
+#include "camera/texture.h"
 #include "camera/views.h"
 #include "core/error.h"
 #include "core/files.h"
@@ -19,16 +20,19 @@ std::function<int()> setup_render(CLI::App& app) {
     ViewSetSettings views;
     uint64_t seed = 0;
     bool no_normalize = false;
-    std::string occlude = "none";
+    std::string occlude = "none", up = "y";
     std::vector<double> elevation, distance, azimuth;
     bool json = false;
   };
   auto o = std::make_shared<Opts>();
-  app.add_option("mesh", o->mesh, "mesh file (.obj .ply .off .stl)")->required();
+  app.add_option("mesh", o->mesh, "mesh file (.obj .ply .off .stl .gltf .glb)")->required();
+  app.add_option("--up", o->up, "the mesh's up axis: y (ShapeNet's, sdfkit's), z (Blender's, most CAD tools') or x")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"y", "z", "x"}));
   app.add_option("-o,--out", o->out, "output folder: NN.png (RGBA), NN.json (camera), norm.json")->required();
-  app.add_option("--views", o->views.views, "number of views")->check(CLI::Range(1, 10000))->capture_default_str();
+  app.add_option("--views", o->views.views, "number of views")->check(in_range(1, 10000))->capture_default_str();
   app.add_option("--size", o->views.size, "image side in pixels (intrinsics: DISN's f = 35/32 * size, c = size/2)")
-      ->check(CLI::Range(8, 8192))
+      ->check(in_range(8, 8192))
       ->capture_default_str();
   app.add_option("--seed", o->seed, "seed of the random views (same seed -> byte-identical files)")
       ->capture_default_str();
@@ -49,11 +53,11 @@ std::function<int()> setup_render(CLI::App& app) {
       ->check(CLI::IsMember({"none", "left", "right", "rect"}))
       ->capture_default_str();
   app.add_option("--rects", o->views.occlusion.rectangles, "number of rectangles for --occlude rect")
-      ->check(CLI::Range(1, 100))
+      ->check(in_range(1, 100))
       ->capture_default_str();
   app.add_option("--supersampling", o->views.render.supersampling,
                  "s: s x s samples per pixel for anti-aliased silhouettes")
-      ->check(CLI::Range(1, 8))
+      ->check(in_range(1, 8))
       ->capture_default_str();
   app.add_flag("--no-normalize", o->no_normalize,
                "render the mesh as it is; by default it is first mapped to the unit sphere (centre = area-weighted "
@@ -68,8 +72,11 @@ std::function<int()> setup_render(CLI::App& app) {
     validate_view_set_settings(st);
 
     const auto t0 = std::chrono::steady_clock::now();
-    Mesh mesh = read_mesh(o->mesh);
-    Json summary = {{"mesh", o->mesh}, {"out", o->out}, {"views", st.views}, {"faces", mesh.num_faces()},
+    MeshReport report;
+    Mesh mesh = to_y_up(read_mesh(o->mesh, &report, image_texture_sampler()), parse_up_axis(o->up));
+    for (const std::string& t : report.missing_textures)
+      std::cerr << "sdfkit: warning: " << o->mesh << ": texture " << t << " cannot be read; its part gets the material colour\n";
+    Json summary = {{"mesh", o->mesh}, {"up", o->up}, {"out", o->out}, {"views", st.views}, {"faces", mesh.num_faces()},
                     {"seed", o->seed}, {"normalized", !o->no_normalize}};
     if (!o->no_normalize) {
       const Normalization norm = unit_sphere_normalization(mesh);

@@ -31,6 +31,7 @@ std::function<int()> setup_synth(CLI::App& app) {
     std::vector<std::string> categories;
     std::string preset = "ci";
     int jobs = 0;
+    int split_base = 0;
     bool json = false;
     std::string sheet;
     int sheet_k = 6;
@@ -45,21 +46,26 @@ std::function<int()> setup_synth(CLI::App& app) {
       ->check(CLI::IsMember({"ci", "full"}))
       ->capture_default_str();
   app.add_option("-n,--per-category", o->per_category, "shapes per category (overrides --preset)")
-      ->check(CLI::Range(1, 100000));
+      ->check(in_range(1, 100000));
+  app.add_option("--split-base", o->split_base,
+                 "draw val and test from the first N shapes of each category, as in a benchmark of N per category; "
+                 "the shapes after them all go to train (0 = all shapes): a larger training set with the same test "
+                 "shapes")
+      ->check(non_negative());
   app.add_option("--seed", o->seed, "seed of every random choice (same seed -> byte-identical files)")
       ->capture_default_str();
   app.add_option("--categories", o->categories,
                  "comma-separated names or ShapeNet synset ids (default: all 13: " + names + ")");
   app.add_option("-j,--jobs", o->jobs, "worker threads, 0 = all cores (output does not depend on it)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(non_negative())
       ->capture_default_str();
   app.add_flag("--json", o->json, "print a JSON summary on stdout");
   app.add_option("--sheet", o->sheet, "also render a contact sheet PNG: one view of the first K shapes per category");
   app.add_option("--sheet-per-category", o->sheet_k, "K, shapes per category on the contact sheet")
-      ->check(CLI::Range(1, 100))
+      ->check(in_range(1, 100))
       ->capture_default_str();
   app.add_option("--sheet-cell", o->sheet_cell, "contact sheet cell size in pixels")
-      ->check(CLI::Range(16, 2048))
+      ->check(in_range(16, 2048))
       ->capture_default_str();
   return [o] {
     synth::SynthSettings s;
@@ -67,6 +73,7 @@ std::function<int()> setup_synth(CLI::App& app) {
     s.seed = o->seed;
     s.categories = split_commas(o->categories);
     s.jobs = o->jobs;
+    s.split_base = o->split_base;
     const auto plan = synth::plan_benchmark(s);  // validates categories before any work
     ProgressBar bar("synth", static_cast<long>(plan.size()));
     const auto t0 = std::chrono::steady_clock::now();

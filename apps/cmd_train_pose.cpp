@@ -34,11 +34,11 @@ std::function<int()> setup_train_pose(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--val-split", s.val_split, "validation split (\"\" = validate on training shapes)")
       ->capture_default_str();
-  app.add_option("--steps", s.steps, "optimisation steps")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--batch", s.batch, "(shape, view) images per step")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--steps", s.steps, "optimisation steps")->capture_default_str()->check(positive());
+  app.add_option("--batch", s.batch, "(shape, view) images per step")->capture_default_str()->check(positive());
   app.add_option("--points", s.points, "sample points per image in the loss (DISN: 2048)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_option("--lr", s.lr, "Adam learning rate (cosine decay to --lr-min)")->capture_default_str();
   app.add_option("--lr-min", s.lr_min, "learning rate at the last step")->capture_default_str();
   app.add_option("--beta1", s.beta1, "Adam beta1 (DISN: 0.5)")->capture_default_str();
@@ -46,30 +46,30 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   app.add_option("--grad-clip", s.grad_clip, "clip the gradient norm (0 = off)")->capture_default_str();
   app.add_option("--val-every", s.val_every, "validate, checkpoint and rewrite the curve every N steps")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_option("--val-items", s.val_items, "validation images (seeded choice of views)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_option("--max-shapes", s.max_shapes, "use only the first N training shapes (0 = all)")->capture_default_str();
   app.add_option("--width", s.net.width, "channels of the first convolution (later: 2x, 4x, 8x)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_option("--feature", s.net.feature, "size of the shared feature the heads read")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_option("--azimuth-bins", s.net.azimuth_bins,
                  "bins of the azimuth classifier head (0 = no head, DISN's network); at inference it checks the "
                  "regressed rotation for flips")
       ->capture_default_str()
-      ->check(CLI::Range(0, 360));
+      ->check(in_range(0, 360));
   app.add_option("--azimuth-weight", s.azimuth_weight, "weight of the azimuth head's cross-entropy in the loss")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app.add_option("--symmetry-tol", o->symmetry_tol,
                  "take L_cam modulo each training shape's quarter and half turns about the vertical axis that map its "
                  "gt.obj onto itself within this distance (object units); 0 = plain L_cam")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app.add_option("--distance-min", o->s.net.distance_min, "smallest predictable camera distance")
       ->capture_default_str();
   app.add_option("--distance-max", o->s.net.distance_max, "largest predictable camera distance")->capture_default_str();
@@ -77,15 +77,15 @@ std::function<int()> setup_train_pose(CLI::App& app) {
                  "photometric augmentation: random brightness and tint of the object, strength in [0, 1) (0 = off); "
                  "the white background and the object's outline stay as rendered, so the camera stays exact")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 0.999));
+      ->check(in_range(0.0, 0.999));
   app.add_option("--aug-swap", s.augment.channel_swap,
                  "probability of a random permutation of the image's RGB channels (0 = off)")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(in_range(0.0, 1.0));
   app.add_option("--aug-noise", s.augment.noise,
                  "standard deviation of Gaussian pixel noise added to training images in [0, 1] (0 = off)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app.add_option("--seed", s.seed, "seed of the initialisation, of every batch and of the augmentation")
       ->capture_default_str();
   app.add_option("--init", s.init,

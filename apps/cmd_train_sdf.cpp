@@ -73,9 +73,9 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   app.add_option("--val-split", s.val_split, "validation split (\"\" = the first training shapes)")->capture_default_str();
   app.add_option("--variant", o->variant, "network variant: two-stream, one-stream, global-only, binary")
       ->capture_default_str();
-  app.add_option("--steps", s.steps, "optimisation steps")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--batch", s.batch, "(shape, view) items per step")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--points", s.points, "SDF samples per item per step")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--steps", s.steps, "optimisation steps")->capture_default_str()->check(positive());
+  app.add_option("--batch", s.batch, "(shape, view) items per step")->capture_default_str()->check(positive());
+  app.add_option("--points", s.points, "SDF samples per item per step")->capture_default_str()->check(positive());
   app.add_option("--lr", s.lr, "Adam learning rate (beta1 = 0.5 as DISN)")->capture_default_str();
   app.add_option("--lr-min", s.lr_min,
                  "cosine decay of the learning rate to this value at the end of the decay (= --lr: constant)")
@@ -83,7 +83,7 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   app.add_option("--lr-steps", s.lr_steps,
                  "steps over which the cosine decay runs (0 = --steps; larger: training stops before the decay ends, "
                  "e.g. a first stage of a longer schedule)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(non_negative())
       ->capture_default_str();
   app.add_option("--init", s.init,
                  "start from this SDF model's weights (same network flags) instead of the seeded initialisation; "
@@ -93,13 +93,13 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
                  "deviation in degrees (0 = off): teaches the local features to tolerate an estimated camera's "
                  "azimuth error")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 180.0));
+      ->check(in_range(0.0, 180.0));
   app.add_option("--weight-decay", s.weight_decay, "L2 weight decay (coupled, as DISN's regulariser)")
       ->capture_default_str();
   app.add_option("--grad-clip", s.grad_clip, "clip the gradient norm to this value (0 = off)")->capture_default_str();
   app.add_option("--val-every", s.val_every, "validate and write a checkpoint every N steps")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(positive());
   app.add_option("--val-shapes", s.val_shapes, "validation shapes (view 0 of each)")->capture_default_str();
   app.add_option("--max-shapes", s.max_shapes, "use only the first N training shapes (0 = all)")->capture_default_str();
   app.add_option("--seed", s.seed, "seed of the initialisation and of every batch")->capture_default_str();

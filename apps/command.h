@@ -24,6 +24,20 @@ struct Command {
 std::vector<Command>& registry();
 bool register_command(Command command);
 
+/// The folder of the shipped models: $SDFKIT_MODEL_DIR when set, else <the executable's folder>/../share/sdfkit/models
+/// (an installed sdfkit; in the build tree CMake links it to the source's data/models). Empty when neither exists.
+std::string default_model_dir();
+/// default_model_dir()/file, or "" when there is no model folder (commands then ask for --model).
+std::string default_model_path(const std::string& file);
+/// `path`, or an InvalidInput saying how to name a model when it is empty (no default model folder).
+std::string require_model_path(const std::string& path, const std::string& flag);
+
+/// Numeric checks of flags whose messages read "--jobs: must be > 0 (got 0)" rather than CLI11's range text
+/// (which prints the bounds of a double: "not in range 0.000000 to 1797693...").
+CLI::Validator positive();
+CLI::Validator non_negative();
+CLI::Validator in_range(double lo, double hi);
+
 /// True when stderr is a terminal (progress bars are drawn only then).
 bool stderr_is_tty();
 

@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <malloc.h>
 #include <map>
@@ -29,6 +31,66 @@ bool register_command(Command command) {
 }
 
 bool stderr_is_tty() { return ::isatty(STDERR_FILENO) == 1; }
+
+namespace {
+std::string number_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+/// A validator that parses the value as a number and applies `ok`; `rule` completes "must be ...".
+CLI::Validator numeric_check(std::function<bool(double)> ok, const std::string& rule, const std::string& help) {
+  return CLI::Validator(
+      [ok, rule](std::string& in) -> std::string {
+        double v = 0;
+        try {
+          size_t used = 0;
+          v = std::stod(in, &used);
+          if (used != in.size()) return "'" + in + "' is not a number";
+        } catch (const std::exception&) {
+          return "'" + in + "' is not a number";
+        }
+        if (!ok(v)) return "must be " + rule + " (got " + in + ")";
+        return std::string();
+      },
+      help);
+}
+}  // namespace
+
+CLI::Validator positive() {
+  return numeric_check([](double v) { return v > 0; }, "> 0", "POSITIVE");
+}
+CLI::Validator non_negative() {
+  return numeric_check([](double v) { return v >= 0; }, ">= 0", "NONNEGATIVE");
+}
+CLI::Validator in_range(double lo, double hi) {
+  return numeric_check([lo, hi](double v) { return v >= lo && v <= hi; },
+                       "between " + number_text(lo) + " and " + number_text(hi),
+                       "in [" + number_text(lo) + " - " + number_text(hi) + "]");
+}
+
+std::string default_model_dir() {
+  namespace fs = std::filesystem;
+  if (const char* env = std::getenv("SDFKIT_MODEL_DIR"); env != nullptr && *env != '\0') return env;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) return {};
+  const fs::path dir = exe.parent_path().parent_path() / "share" / "sdfkit" / "models";
+  return fs::is_directory(dir, ec) ? dir.string() : std::string();
+}
+
+std::string default_model_path(const std::string& file) {
+  const std::string dir = default_model_dir();
+  return dir.empty() ? std::string() : (std::filesystem::path(dir) / file).string();
+}
+
+std::string require_model_path(const std::string& path, const std::string& flag) {
+  if (!path.empty()) return path;
+  throw sdfkit::InvalidInput("no default model folder (SDFKIT_MODEL_DIR is unset and " +
+                             std::string("<sdfkit's folder>/../share/sdfkit/models does not exist): give ") + flag +
+                             " or set SDFKIT_MODEL_DIR");
+}
 
 struct ProgressBar::Impl {
   std::string label;
@@ -105,7 +167,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("sdfkit ") + SDFKIT_VERSION);
   int threads = 0;
   app.add_option("--threads", threads, "worker threads for parallel work (default: all cores)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   std::function<int()> run;
   // "bench prep" registers `prep` under the group `bench`; groups are created on first use.
   const std::map<std::string, std::string> group_summaries = {

@@ -41,31 +41,6 @@ void paste_rgb_on_white(const Image& rgba, Image& dst, int x0) {
     }
 }
 
-/// Object coverage of a mask pixel: its alpha when it has one, else its luminance.
-float mask_value(const Image& mask, int x, int y) {
-  float m = 0;
-  if (mask.channels == 2 || mask.channels == 4)
-    m = mask.at(x, y, mask.channels - 1);
-  else
-    m = mask.channels >= 3 ? (mask.at(x, y, 0) + mask.at(x, y, 1) + mask.at(x, y, 2)) / 3.f : mask.at(x, y, 0);
-  return std::clamp(m, 0.f, 1.f);
-}
-
-/// A 1-channel coverage function of the source pixels, resampled to the network's 137 x 137 like the image.
-template <class F>
-Image resample_coverage(int width, int height, const F& value) {
-  Image grey(width, height, 3);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const float v = value(x, y);
-      for (int c = 0; c < 3; ++c) grey.at(x, y, c) = v;
-    }
-  const Eigen::VectorXf v = network_image(grey);
-  Image out(kNetImageSize, kNetImageSize, 1);
-  for (int i = 0; i < kNetImageSize * kNetImageSize; ++i) out.data[i] = std::clamp(v[i], 0.f, 1.f);
-  return out;
-}
-
 /// Pixel i of a 3 x 137 x 137 network input is foreground when a channel differs from the white background by
 /// more than 0.05.
 bool is_foreground(const Eigen::VectorXf& input, int i) {
@@ -83,48 +58,6 @@ Image input_foreground(const Eigen::VectorXf& input) {
   Image out(kNetImageSize, kNetImageSize, 1);
   for (int i = 0; i < n; ++i) out.data[i] = is_foreground(input, i) ? 1.f : 0.f;
   return out;
-}
-
-Image recon_silhouette(const Image& image, const Image* mask, const Eigen::VectorXf& input) {
-  if (mask != nullptr) {
-    require(!mask->empty() && mask->width == image.width && mask->height == image.height,
-            "recon_silhouette: the mask must have the image's size");
-    return resample_coverage(mask->width, mask->height, [&](int x, int y) { return mask_value(*mask, x, y); });
-  }
-  if (image.channels == 2 || image.channels == 4)
-    return resample_coverage(image.width, image.height,
-                             [&](int x, int y) { return std::clamp(image.at(x, y, image.channels - 1), 0.f, 1.f); });
-  return input_foreground(input);
-}
-
-Eigen::VectorXf prepare_recon_input(const Image& image, const Image* mask, const ReconSettings& settings,
-                                    const std::string& what) {
-  if (image.empty() || image.width <= 0 || image.height <= 0 || image.channels <= 0)
-    throw InvalidInput(what + ": empty image");
-  Eigen::VectorXf v;
-  if (mask != nullptr) {
-    if (mask->empty()) throw InvalidInput(what + ": empty mask");
-    if (mask->width != image.width || mask->height != image.height)
-      throw InvalidInput(what + ": mask is " + std::to_string(mask->width) + "x" + std::to_string(mask->height) +
-                         " but the image is " + std::to_string(image.width) + "x" + std::to_string(image.height));
-    Image rgba(image.width, image.height, 4);
-    for (int y = 0; y < image.height; ++y)
-      for (int x = 0; x < image.width; ++x) {
-        for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = image.at(x, y, image.channels >= 3 ? c : 0);
-        rgba.at(x, y, 3) = mask_value(*mask, x, y);
-      }
-    v = network_image(rgba);
-  } else {
-    v = network_image(image);
-  }
-  const int n = kNetImageSize * kNetImageSize;
-  long foreground = 0;
-  for (int i = 0; i < n; ++i) foreground += is_foreground(v, i);
-  if (foreground < settings.min_foreground_fraction * n)
-    throw InvalidInput(what + ": the image shows only background (" + std::to_string(foreground) +
-                       " of " + std::to_string(n) +
-                       " pixels differ from the white background after compositing the alpha/mask)");
-  return v;
 }
 
 Reconstructor::Reconstructor(std::unique_ptr<SdfNet> sdf, std::unique_ptr<PoseNet> pose)
@@ -153,24 +86,49 @@ Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_
   return p.cameras.at(0);
 }
 
-ReconResult Reconstructor::run(const Image& image, const Image* mask, const Camera* camera,
-                               const ReconSettings& settings, const std::string& what) const {
-  const auto t0 = Clock::now();
-  const Eigen::VectorXf input = prepare_recon_input(image, mask, settings, what);
-  Image silhouette;
-  if (settings.refine_rounds > 0) silhouette = recon_silhouette(image, mask, input);
-  const double prep = since(t0);
-  ReconResult r = run_input(input, camera, settings, what, settings.refine_rounds > 0 ? &silhouette : nullptr);
-  r.timings.prepare = prep;
-  r.timings.total += prep;
-  return r;
-}
-
 struct Reconstructor::MeshStats {
   long evaluations = 0;
   int components_removed = 0;
   double encode = 0, field = 0, extract = 0, cleanup = 0;
 };
+
+ReconResult Reconstructor::run(const Image& image, const Image* mask, const Camera* camera,
+                               const ReconSettings& settings, const std::string& what) const {
+  const auto t0 = Clock::now();
+  FramedInput framed = frame_input(image, mask, settings.framing, what);
+  const Eigen::VectorXf input = network_image(framed.image);
+  Image silhouette;
+  if (settings.refine_rounds > 0) {
+    if (framed.mask_source == "none") {
+      silhouette = input_foreground(input);
+    } else {
+      silhouette = Image(kNetImageSize, kNetImageSize, 1);
+      for (int y = 0; y < kNetImageSize; ++y)
+        for (int x = 0; x < kNetImageSize; ++x) silhouette.at(x, y) = framed.image.at(x, y, 3);
+    }
+  }
+  Camera network_camera;
+  if (camera != nullptr) {
+    validate_camera(*camera, what + ": camera");
+    Camera in = *camera;
+    if (in.width != image.width || in.height != image.height) {
+      in.K.row(0) *= static_cast<double>(image.width) / in.width;
+      in.K.row(1) *= static_cast<double>(image.height) / in.height;
+      in.width = image.width;
+      in.height = image.height;
+    }
+    network_camera = camera_in_network(in, framed);
+  }
+  const double prep = since(t0);
+  ReconResult r = run_input(input, camera != nullptr ? &network_camera : nullptr, settings, what,
+                            settings.refine_rounds > 0 ? &silhouette : nullptr);
+  r.input_camera = camera_in_input(r.camera, framed, image.width, image.height);
+  r.framing = std::move(framed);
+  r.timings.prepare = prep;
+  r.timings.total += prep;
+  return r;
+}
+
 
 Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings,
                                 int resolution, const std::string& what, MeshStats& stats) const {
@@ -234,6 +192,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& input, const Camera*
     r.timings.pose = since(t);
   }
   r.initial_camera = r.camera;
+  r.input_camera = r.camera;
 
   if (settings.refine_rounds > 0) {
     t = Clock::now();

@@ -1,5 +1,6 @@
 // Single-view reconstruction as a library function (what `sdfkit recon` runs per image):
-//   image (any size, 1-4 channels; alpha or a mask composited on white, see nets/dataset.h network_image)
+//   image (any size, 1-4 channels) -> framing (recon/framing.h): the object found (alpha, mask, plain background or
+//   GrabCut), composited on white and cropped like the training renders to 137 x 137
 //   -> camera: estimated by the pose network, or given
 //   -> SDF network: per-shape encoding once, then batches of points
 //   -> adaptive extraction of the 0 level (extract/adaptive.h; safety factor > 1 because the network's field is
@@ -13,6 +14,7 @@
 #include "nets/pose_net.h"
 #include "nets/sdf_net.h"
 #include "recon/camera_refine.h"
+#include "recon/framing.h"
 
 #include <memory>
 #include <mutex>
@@ -41,16 +43,13 @@ struct ReconSettings {
   double min_component_fraction = 0.3;  ///< DISN's clean-up: drop components under 30% of the largest (faces)
   bool preview = true;
   int preview_size = 192;        ///< side of each preview panel in pixels
-  /// An input is refused as "only background" when fewer than this fraction of its network-image pixels differ
-  /// from the white background by more than 0.05 (after alpha/mask compositing).
-  double min_foreground_fraction = 0.002;
   /// Margin of the pose model's flip check (PoseNet::set_flip_check; used when the model has an azimuth head):
   /// the regressed camera is turned to the azimuth the head prefers when the head gives that azimuth more than
   /// this many times the probability mass of the regressed one. 0 = the 6D head alone.
   double flip_check = kDefaultFlipCheck;
   /// Rounds of test-time camera refinement by silhouette alignment (recon/camera_refine.h; 0 = off). Each round
   /// reconstructs a mesh at `refine_resolution` with the current camera, aligns its silhouette to the input's
-  /// object mask (recon_silhouette) and continues with the refined camera; the final mesh is reconstructed with
+  /// object mask (the framing's mask) and continues with the refined camera; the final mesh is reconstructed with
   /// the last camera.
   int refine_rounds = 0;
   /// true: the objective re-reconstructs the mesh with every candidate camera (the network's local features move
@@ -63,6 +62,8 @@ struct ReconSettings {
   /// the joint objective, azimuth turns of -60..+60 degrees in 10 degree steps, no local search (with the joint
   /// objective's noise, Nelder-Mead over 3 or 4 parameters lost more than it won).
   CameraRefineSettings refine = recon_refine_defaults();
+  /// How run() finds and frames the object in the input image.
+  FramingSettings framing;
 };
 
 struct ReconTimings {
@@ -79,7 +80,9 @@ struct ReconTimings {
 
 struct ReconResult {
   Mesh mesh;                    ///< closed, object frame
-  Camera camera;                ///< the camera used (137 px), after refinement when it ran
+  Camera camera;                ///< the camera used, of the 137 px network image, after refinement when it ran
+  Camera input_camera;          ///< the same camera as a camera of the input image (run(); = camera for run_input)
+  FramedInput framing;          ///< how run() framed the input (empty for run_input)
   bool camera_estimated = false;
   double flip_turn_deg = 0;     ///< degrees the flip check turned the estimated camera about +y (0 = kept)
   Camera initial_camera;        ///< the estimated or given camera before refinement
@@ -90,18 +93,7 @@ struct ReconResult {
   Image preview;                ///< RGB, 4 panels side by side (empty when settings.preview is false)
 };
 
-/// Input image -> network input (3 x 137 x 137). `mask` (optional, any size, white = object) replaces the
-/// image's alpha. Throws InvalidInput naming `what` for an empty image, a mask of another size, or an image that
-/// is only background.
-Eigen::VectorXf prepare_recon_input(const Image& image, const Image* mask, const ReconSettings& settings,
-                                    const std::string& what);
-
-/// The object's silhouette at 137 x 137 (1 channel, coverage in [0, 1]), as recon defines the foreground: the
-/// mask when given (its alpha, else its luminance), else the image's alpha (2 or 4 channels), else the pixels of
-/// the network input `input` that differ from the white background by more than 0.05. Mask and alpha are resampled
-/// like the image (network_image).
-Image recon_silhouette(const Image& image, const Image* mask, const Eigen::VectorXf& input);
-/// The last rule alone: non-white pixels of a network input (3 x 137 x 137).
+/// The non-white pixels (any channel off white by more than 0.05) of a network input (3 x 137 x 137).
 Image input_foreground(const Eigen::VectorXf& input);
 
 /// Holds the networks; run() is thread-safe (the pose network is serialised by a mutex).
@@ -116,10 +108,12 @@ class Reconstructor {
   [[nodiscard]] const SdfNet& sdf() const { return *sdf_; }
   [[nodiscard]] bool has_pose() const { return pose_ != nullptr; }
 
-  /// Reconstruct one image. `camera` null = estimate it. `what` names the input in error messages.
+  /// Reconstruct one image: frame it (settings.framing), then run_input. `camera` (null = estimate it) is a camera of
+  /// the input image (a camera of another size is scaled to the image's size first). `what` names the input in
+  /// error messages.
   ReconResult run(const Image& image, const Image* mask, const Camera* camera, const ReconSettings& settings,
                   const std::string& what) const;
-  /// Same from a prepared network input (3 x 137 x 137). `silhouette` (137 x 137 coverage, recon_silhouette) is
+  /// Same from a prepared network input (3 x 137 x 137). `silhouette` (137 x 137 coverage: the framed alpha in run()) is
   /// the mask camera refinement aligns to; null = input_foreground(input).
   ReconResult run_input(const Eigen::VectorXf& input, const Camera* camera, const ReconSettings& settings,
                         const std::string& what, const Image* silhouette = nullptr) const;

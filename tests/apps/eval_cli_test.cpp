@@ -212,6 +212,21 @@ TEST_CASE("eval refuses bad input with one line naming the file (exit 1)") {
 
   r = run("eval " + good.string() + " " + good.string() + " --protocol nope");
   CHECK(r.code == 1);
+
+  // Flags that do not apply are errors, not silently ignored.
+  const std::vector<std::pair<std::string, std::string>> na = {
+      {" --protocol onet --emd approx", "--emd does not apply to --protocol onet"},
+      {" --protocol onet --no-emd", "--no-emd does not apply"},
+      {" --protocol tmnet --no-iou", "--no-iou does not apply to --protocol tmnet"},
+      {" --split test", "--split applies to folders"},
+      {" --jobs 2", "--jobs applies to folders"},
+  };
+  for (const auto& [flags, message] : na) {
+    CAPTURE(flags);
+    r = run("eval " + good.string() + " " + good.string() + flags);
+    CHECK(r.code == 1);
+    CHECK(r.err.find(message) != std::string::npos);
+  }
 }
 
 TEST_CASE("eval of folders with --split: only the listed shapes are scored, a listed shape without GT is reported") {

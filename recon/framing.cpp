@@ -1,0 +1,472 @@
+#include "recon/framing.h"
+
+#include "core/error.h"
+#include "nets/dataset.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace sdfkit {
+
+namespace {
+
+constexpr float kBackground = kNetBackground;  // the training renders' background (white)
+
+std::string fmt(double v, int digits = 2) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(digits);
+  s << v;
+  return s.str();
+}
+
+/// Object coverage of a mask pixel: its alpha when it has one, else its luminance.
+float mask_value(const Image& mask, int x, int y) {
+  float m = 0;
+  if (mask.channels == 2 || mask.channels == 4)
+    m = mask.at(x, y, mask.channels - 1);
+  else
+    m = mask.channels >= 3 ? (mask.at(x, y, 0) + mask.at(x, y, 1) + mask.at(x, y, 2)) / 3.f : mask.at(x, y, 0);
+  return std::isfinite(m) ? std::clamp(m, 0.f, 1.f) : 0.f;
+}
+
+bool has_transparency(const Image& image) {
+  if (image.channels != 2 && image.channels != 4) return false;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      if (image.at(x, y, image.channels - 1) < 0.999f) return true;
+  return false;
+}
+
+/// The border's median colour and the share of border pixels within `tolerance` of it (every channel).
+struct BorderStats {
+  float colour[3] = {kBackground, kBackground, kBackground};
+  double plain_share = 0;
+};
+
+BorderStats border_stats(const Image& rgb, double tolerance) {
+  const int W = rgb.width, H = rgb.height;
+  const int band = std::max(1, static_cast<int>(std::lround(0.02 * std::min(W, H))));
+  std::vector<int> xs, ys;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (x < band || y < band || x >= W - band || y >= H - band) {
+        xs.push_back(x);
+        ys.push_back(y);
+      }
+  BorderStats s;
+  std::vector<float> v(xs.size());
+  for (int c = 0; c < 3; ++c) {
+    for (size_t i = 0; i < xs.size(); ++i) v[i] = rgb.at(xs[i], ys[i], c);
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    s.colour[c] = v[v.size() / 2];
+  }
+  long plain = 0;
+  for (size_t i = 0; i < xs.size(); ++i) {
+    float d = 0;
+    for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(rgb.at(xs[i], ys[i], c) - s.colour[c]));
+    plain += d <= tolerance;
+  }
+  s.plain_share = static_cast<double>(plain) / static_cast<double>(xs.size());
+  return s;
+}
+
+/// GrabCut on the image shrunk to at most max_side pixels, seeded with `rect` (input pixels); the object's
+/// coverage at the input's size. OpenCV's k-means initialisation draws from cv::theRNG(), which is seeded here:
+/// the same image gives the same mask.
+Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int iterations) {
+  const int W = rgb.width, H = rgb.height;
+  const double scale = std::min(1.0, static_cast<double>(max_side) / std::max(W, H));
+  cv::Mat full(H, W, CV_8UC3);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      for (int c = 0; c < 3; ++c)  // OpenCV's channel order is BGR
+        full.at<cv::Vec3b>(y, x)[2 - c] =
+            static_cast<uchar>(std::lround(255.f * std::clamp(rgb.at(x, y, c), 0.f, 1.f)));
+  cv::Mat small;
+  const int w = std::max(1, static_cast<int>(std::lround(W * scale))), h = std::max(1, static_cast<int>(std::lround(H * scale)));
+  if (scale < 1.0)
+    cv::resize(full, small, cv::Size(w, h), 0, 0, cv::INTER_AREA);
+  else
+    small = full;
+  cv::Rect r(static_cast<int>(std::floor(rect.x * scale)), static_cast<int>(std::floor(rect.y * scale)),
+             std::max(1, static_cast<int>(std::ceil(rect.w * scale))), std::max(1, static_cast<int>(std::ceil(rect.h * scale))));
+  r &= cv::Rect(0, 0, small.cols, small.rows);
+  cv::Mat labels(small.size(), CV_8UC1, cv::Scalar(cv::GC_BGD)), bgd, fgd;
+  cv::theRNG().state = 0x5dfc0de5eedULL;
+  cv::grabCut(small, labels, r, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
+  cv::Mat fg(small.size(), CV_32FC1);
+  for (int y = 0; y < small.rows; ++y)
+    for (int x = 0; x < small.cols; ++x) {
+      const uchar l = labels.at<uchar>(y, x);
+      fg.at<float>(y, x) = (l == cv::GC_FGD || l == cv::GC_PR_FGD) ? 1.f : 0.f;
+    }
+  cv::Mat up;
+  if (scale < 1.0)
+    cv::resize(fg, up, cv::Size(W, H), 0, 0, cv::INTER_LINEAR);
+  else
+    up = fg;
+  Image out(W, H, 1);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) out.at(x, y) = std::clamp(up.at<float>(y, x), 0.f, 1.f);
+  return out;
+}
+
+/// Bhattacharyya coefficient of the colour histograms (8 bins per channel) of the pixels over and under 0.5 in
+/// `mask`: 1 when object and background have the same colours (nothing stands out), 0 when they share none.
+double colour_overlap(const Image& rgb, const Image& mask) {
+  constexpr int kBins = 8;
+  std::vector<double> fg(kBins * kBins * kBins, 0.0), bg(fg.size(), 0.0);
+  double nf = 0, nb = 0;
+  for (int y = 0; y < rgb.height; ++y)
+    for (int x = 0; x < rgb.width; ++x) {
+      int bin = 0;
+      for (int c = 0; c < 3; ++c) bin = bin * kBins + std::min(kBins - 1, static_cast<int>(rgb.at(x, y, c) * kBins));
+      if (mask.at(x, y) > 0.5f) {
+        fg[static_cast<size_t>(bin)] += 1;
+        nf += 1;
+      } else {
+        bg[static_cast<size_t>(bin)] += 1;
+        nb += 1;
+      }
+    }
+  if (nf == 0 || nb == 0) return 1.0;
+  double bc = 0;
+  for (size_t i = 0; i < fg.size(); ++i) bc += std::sqrt(fg[i] / nf * bg[i] / nb);
+  return bc;
+}
+
+/// Zero the coverage of connected specks (8-connected pixels over 0.5) smaller than `fraction` of the largest
+/// piece; returns the number of pieces kept.
+int drop_specks(Image& mask, double fraction) {
+  cv::Mat hard(mask.height, mask.width, CV_8UC1);
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = 0; x < mask.width; ++x) hard.at<uchar>(y, x) = mask.at(x, y) > 0.5f ? 255 : 0;
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(hard, labels, stats, centroids, 8, CV_32S);
+  int largest = 0;
+  for (int i = 1; i < n; ++i) largest = std::max(largest, stats.at<int>(i, cv::CC_STAT_AREA));
+  std::vector<char> keep(static_cast<size_t>(n), 0);
+  int kept = 0;
+  for (int i = 1; i < n; ++i)
+    if (stats.at<int>(i, cv::CC_STAT_AREA) >= std::max(1.0, fraction * largest)) {
+      keep[static_cast<size_t>(i)] = 1;
+      ++kept;
+    }
+  // A pixel under 0.5 takes the fate of its nearest piece in its 3 x 3 neighbourhood (soft edges stay with their
+  // object); isolated soft pixels go.
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = 0; x < mask.width; ++x) {
+      if (mask.at(x, y) <= 0) continue;
+      bool ok = false;
+      for (int dy = -1; dy <= 1 && !ok; ++dy)
+        for (int dx = -1; dx <= 1 && !ok; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          if (xx < 0 || yy < 0 || xx >= mask.width || yy >= mask.height) continue;
+          ok = keep[static_cast<size_t>(labels.at<int>(yy, xx))] != 0;
+        }
+      if (!ok) mask.at(x, y) = 0;
+    }
+  return kept;
+}
+
+/// Box of the pixels with coverage over 0.5 (w = 0 when there is none).
+PixelBox hard_box(const Image& mask, long* count) {
+  int x0 = mask.width, y0 = mask.height, x1 = -1, y1 = -1;
+  long n = 0;
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = 0; x < mask.width; ++x)
+      if (mask.at(x, y) > 0.5f) {
+        x0 = std::min(x0, x);
+        y0 = std::min(y0, y);
+        x1 = std::max(x1, x);
+        y1 = std::max(y1, y);
+        ++n;
+      }
+  if (count) *count = n;
+  if (x1 < 0) return {};
+  return {x0, y0, x1 - x0 + 1, y1 - y0 + 1};
+}
+
+/// The crop [x0, x0 + side]^2 of the premultiplied RGBA input resampled to size x size: each output pixel averages
+/// ceil(side / size)^2 bilinear samples spread over its footprint; outside the input is transparent.
+Image resample_crop(const Image& rgb, const Image& alpha, double x0, double y0, double side, int size) {
+  const int W = rgb.width, H = rgb.height;
+  const double s = side / size;
+  const int n = std::max(1, static_cast<int>(std::ceil(s)));
+  auto sample = [&](double u, double v, float out[4]) {
+    if (u < 0 || v < 0 || u >= W || v >= H) {
+      out[0] = out[1] = out[2] = out[3] = 0.f;
+      return;
+    }
+    const double fx = std::clamp(u - 0.5, 0.0, W - 1.0), fy = std::clamp(v - 0.5, 0.0, H - 1.0);
+    const int xa = static_cast<int>(std::floor(fx)), ya = static_cast<int>(std::floor(fy));
+    const int xb = std::min(xa + 1, W - 1), yb = std::min(ya + 1, H - 1);
+    const float ax = static_cast<float>(fx - xa), ay = static_cast<float>(fy - ya);
+    const int xs[4] = {xa, xb, xa, xb}, ys[4] = {ya, ya, yb, yb};
+    const float ws[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
+    out[0] = out[1] = out[2] = out[3] = 0.f;
+    for (int k = 0; k < 4; ++k) {
+      const float a = alpha.at(xs[k], ys[k]);
+      for (int c = 0; c < 3; ++c) out[c] += ws[k] * a * rgb.at(xs[k], ys[k], c);
+      out[3] += ws[k] * a;
+    }
+  };
+  Image out(size, size, 4);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      double acc[4] = {0, 0, 0, 0};
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          float v[4];
+          sample(x0 + (x + (i + 0.5) / n) * s, y0 + (y + (j + 0.5) / n) * s, v);
+          for (int c = 0; c < 4; ++c) acc[c] += v[c];
+        }
+      const double a = acc[3] / (n * n);
+      for (int c = 0; c < 3; ++c)
+        out.at(x, y, c) = a > 1e-6 ? static_cast<float>(std::clamp(acc[c] / (n * n) / a, 0.0, 1.0)) : kBackground;
+      out.at(x, y, 3) = static_cast<float>(std::clamp(a, 0.0, 1.0));
+    }
+  return out;
+}
+
+}  // namespace
+
+Segmentation parse_segmentation(const std::string& name) {
+  if (name == "auto") return Segmentation::kAuto;
+  if (name == "none") return Segmentation::kNone;
+  if (name == "grabcut") return Segmentation::kGrabCut;
+  throw InvalidInput("segmentation '" + name + "': use auto, none or grabcut");
+}
+
+std::string segmentation_name(Segmentation s) {
+  switch (s) {
+    case Segmentation::kAuto: return "auto";
+    case Segmentation::kNone: return "none";
+    case Segmentation::kGrabCut: return "grabcut";
+  }
+  return "auto";
+}
+
+Reframing parse_reframing(const std::string& name) {
+  if (name == "auto") return Reframing::kAuto;
+  if (name == "always") return Reframing::kAlways;
+  if (name == "none") return Reframing::kNone;
+  throw InvalidInput("framing '" + name + "': use auto, always or none");
+}
+
+std::string reframing_name(Reframing r) {
+  switch (r) {
+    case Reframing::kAuto: return "auto";
+    case Reframing::kAlways: return "always";
+    case Reframing::kNone: return "none";
+  }
+  return "auto";
+}
+
+PixelBox parse_pixel_box(const std::string& text) {
+  PixelBox b;
+  char c1 = 0, c2 = 0, c3 = 0;
+  std::istringstream in(text);
+  std::string rest;
+  if (!(in >> b.x >> c1 >> b.y >> c2 >> b.w >> c3 >> b.h) || c1 != ',' || c2 != ',' || c3 != ',' || (in >> rest))
+    throw InvalidInput("box '" + text + "': expected X,Y,W,H in pixels (e.g. 40,20,200,180)");
+  if (b.x < 0 || b.y < 0 || b.w <= 0 || b.h <= 0)
+    throw InvalidInput("box '" + text + "': X and Y must be >= 0, W and H > 0");
+  return b;
+}
+
+Image plain_background_mask(const Image& rgb, const float background[3], double tolerance) {
+  require(rgb.channels >= 3, "plain_background_mask: RGB image required");
+  require(tolerance > 0, "plain_background_mask: tolerance must be positive");
+  Image out(rgb.width, rgb.height, 1);
+  for (int y = 0; y < rgb.height; ++y)
+    for (int x = 0; x < rgb.width; ++x) {
+      float d = 0;
+      for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(rgb.at(x, y, c) - background[c]));
+      out.at(x, y) = static_cast<float>(std::clamp((d - tolerance) / tolerance, 0.0, 1.0));
+    }
+  return out;
+}
+
+FramedInput frame_input(const Image& image, const Image* mask, const FramingSettings& st, const std::string& what) {
+  if (image.empty() || image.width <= 0 || image.height <= 0 || image.channels <= 0)
+    throw InvalidInput(what + ": empty image");
+  const int W = image.width, H = image.height;
+  FramedInput f;
+  // 1. The object's coverage at the input's size.
+  Image rgb = to_rgb(image, kBackground);
+  for (float& v : rgb.data) v = std::isfinite(v) ? std::clamp(v, 0.f, 1.f) : kBackground;
+  bool clean = false;
+  if (mask != nullptr) {
+    if (mask->empty()) throw InvalidInput(what + ": empty mask");
+    if (mask->width != W || mask->height != H)
+      throw InvalidInput(what + ": mask is " + std::to_string(mask->width) + "x" + std::to_string(mask->height) +
+                         " but the image is " + std::to_string(W) + "x" + std::to_string(H));
+    f.mask = Image(W, H, 1);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) f.mask.at(x, y) = mask_value(*mask, x, y);
+    f.mask_source = "mask";
+  } else if (has_transparency(image)) {
+    f.mask = alpha_of(image);
+    for (float& v : f.mask.data) v = std::isfinite(v) ? std::clamp(v, 0.f, 1.f) : 0.f;
+    f.mask_source = "alpha";
+    // Colour under the alpha, not composited: rebuild it from the straight channels.
+    rgb = Image(W, H, 3);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const float v = image.at(x, y, image.channels >= 3 ? c : 0);
+          rgb.at(x, y, c) = std::isfinite(v) ? std::clamp(v, 0.f, 1.f) : kBackground;
+        }
+  } else if (st.segment == Segmentation::kNone) {
+    f.mask = Image(W, H, 1);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        float d = 0;
+        for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(rgb.at(x, y, c) - kBackground));
+        f.mask.at(x, y) = d > 0.05f ? 1.f : 0.f;
+      }
+    f.mask_source = "none";
+  } else {
+    const BorderStats border = border_stats(rgb, st.background_tolerance);
+    const bool plain = border.plain_share >= st.plain_share;
+    if (st.segment == Segmentation::kAuto && plain) {
+      f.mask = plain_background_mask(rgb, border.colour, st.background_tolerance);
+      f.mask_source = "plain-background";
+    } else {
+      PixelBox rect;
+      if (st.box) {
+        rect = *st.box;
+      } else {
+        const int mx = std::max(1, static_cast<int>(std::lround(0.03 * W)));
+        const int my = std::max(1, static_cast<int>(std::lround(0.03 * H)));
+        rect = {mx, my, W - 2 * mx, H - 2 * my};
+      }
+      if (rect.w < 2 || rect.h < 2) throw InvalidInput(what + ": image too small to segment (" + std::to_string(W) + "x" + std::to_string(H) + ")");
+      f.mask = grabcut_mask(rgb, rect, st.grabcut_max_side, st.grabcut_iterations);
+      f.mask_source = "grabcut";
+      if (st.segment == Segmentation::kAuto)
+        f.warnings.push_back("the background is not plain (" + fmt(100 * border.plain_share, 0) +
+                             "% of the border is one colour): the object was segmented by GrabCut; check the mask");
+    }
+    clean = true;
+  }
+  if (st.box) {
+    const PixelBox& b = *st.box;
+    if (b.x >= W || b.y >= H)
+      throw InvalidInput(what + ": --box starts outside the " + std::to_string(W) + "x" + std::to_string(H) + " image");
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        if (x < b.x || y < b.y || x >= b.x + b.w || y >= b.y + b.h) f.mask.at(x, y) = 0;
+  }
+  if (clean) drop_specks(f.mask, 0.02);
+
+  // 2. The object's box; refuse what is not an object.
+  long count = 0;
+  f.object_box = hard_box(f.mask, &count);
+  const PixelBox& ob = f.object_box;
+  if (count == 0)
+    throw InvalidInput(what + ": the image shows only background (no object pixel; mask source " + f.mask_source + ")");
+  const int longer = std::max(ob.w, ob.h);
+  if (longer < st.min_object_px)
+    throw InvalidInput(what + ": the object is too small (" + std::to_string(ob.w) + "x" + std::to_string(ob.h) +
+                       " px; at least " + std::to_string(st.min_object_px) + " px on its longer side)");
+  const double cover = static_cast<double>(count) / (static_cast<double>(W) * H);
+  if (clean && cover > 0.9)
+    throw InvalidInput(what + ": no object stands out from the background (the " + f.mask_source +
+                       " mask covers " + fmt(100 * cover, 0) + "% of the image); give --mask or --box");
+  if (f.mask_source == "grabcut" && colour_overlap(rgb, f.mask) > st.max_colour_overlap)
+    throw InvalidInput(what + ": no object stands out from the background (GrabCut's object and background have the "
+                       "same colours); give --mask or --box");
+  const bool touches = ob.x == 0 || ob.y == 0 || ob.x + ob.w == W || ob.y + ob.h == H;
+  if (touches) f.warnings.push_back("the object touches the image border: it may be cut off");
+  if (longer < 48)
+    f.warnings.push_back("the object is small (" + std::to_string(ob.w) + "x" + std::to_string(ob.h) +
+                         " px): details below a few pixels are lost");
+
+  // 3. The crop.
+  const TrainingFraming& tf = st.training;
+  const double bx = ob.x + 0.5 * ob.w, by = ob.y + 0.5 * ob.h;
+  bool reframe = st.reframe == Reframing::kAlways;
+  if (st.reframe == Reframing::kAuto) {
+    const bool square = std::abs(W - H) <= std::max(1, static_cast<int>(0.01 * std::max(W, H)));
+    const double extent = static_cast<double>(longer) / std::max(W, H);
+    const double dx = bx / W - 0.5 - tf.centre_dx, dy = by / H - 0.5 - tf.centre_dy;
+    const bool like_training = square && !touches && extent >= tf.extent_min && extent <= tf.extent_max &&
+                               std::abs(dx) <= tf.centre_tolerance && std::abs(dy) <= tf.centre_tolerance;
+    reframe = !like_training;
+  }
+  f.rgb = std::move(rgb);
+  f.alpha = f.mask;
+  if (f.mask_source == "none") std::fill(f.alpha.data.begin(), f.alpha.data.end(), 1.f);  // the image as it is
+  if (reframe) {
+    crop_at_extent(f, tf.extent, tf);
+  } else {
+    f.side = std::max(W, H);
+    f.x0 = 0.5 * (W - f.side);
+    f.y0 = 0.5 * (H - f.side);
+    f.extent = longer / f.side;
+    f.reframed = false;
+    // 4. The network image: the crop of the object (premultiplied by its coverage) at 137 px.
+    f.image = resample_crop(f.rgb, f.alpha, f.x0, f.y0, f.side, kNetImageSize);
+  }
+  long shown = 0;
+  for (int y = 0; y < kNetImageSize; ++y)
+    for (int x = 0; x < kNetImageSize; ++x) {
+      float d = 0;
+      const float a = f.image.at(x, y, 3);
+      for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(a * f.image.at(x, y, c) + (1 - a) * kBackground - kBackground));
+      shown += d > 0.05f;
+    }
+  const double n = static_cast<double>(kNetImageSize) * kNetImageSize;
+  if (shown < st.min_object_share * n)
+    throw InvalidInput(what + ": the image shows only background (" + std::to_string(shown) + " of " +
+                       std::to_string(static_cast<long>(n)) +
+                       " pixels of the framed image differ from the white background; mask source " + f.mask_source + ")");
+  return f;
+}
+
+void crop_at_extent(FramedInput& f, double extent, const TrainingFraming& tf) {
+  require(extent > 0 && extent <= 4, "crop_at_extent: extent must be in (0, 4]");
+  require(!f.rgb.empty() && !f.alpha.empty() && f.object_box.w > 0, "crop_at_extent: nothing was framed");
+  const PixelBox& ob = f.object_box;
+  const double bx = ob.x + 0.5 * ob.w, by = ob.y + 0.5 * ob.h;
+  f.side = std::max(ob.w, ob.h) / extent;
+  f.x0 = bx - (0.5 + tf.centre_dx) * f.side;
+  f.y0 = by - (0.5 + tf.centre_dy) * f.side;
+  f.extent = extent;
+  f.reframed = true;
+  f.image = resample_crop(f.rgb, f.alpha, f.x0, f.y0, f.side, kNetImageSize);
+}
+
+Camera camera_in_input(const Camera& network_camera, const FramedInput& framed, int input_width, int input_height) {
+  require(framed.side > 0, "camera_in_input: the framing has no crop");
+  require(input_width > 0 && input_height > 0, "camera_in_input: input size must be positive");
+  // Network-image pixel u maps to input pixel x0 + u * s (s = side / network width).
+  Camera c = network_camera;
+  const double s = framed.side / network_camera.width;
+  Eigen::Matrix3d A;
+  A << s, 0, framed.x0, 0, framed.side / network_camera.height, framed.y0, 0, 0, 1;
+  c.K = A * network_camera.K;
+  c.width = input_width;
+  c.height = input_height;
+  return c;
+}
+
+Camera camera_in_network(const Camera& input_camera, const FramedInput& framed) {
+  require(framed.side > 0, "camera_in_network: the framing has no crop");
+  Camera c = input_camera;
+  const double s = framed.side / kNetImageSize;
+  Eigen::Matrix3d A_inv;
+  A_inv << 1 / s, 0, -framed.x0 / s, 0, 1 / s, -framed.y0 / s, 0, 0, 1;
+  c.K = A_inv * input_camera.K;
+  c.width = c.height = kNetImageSize;
+  return c;
+}
+
+}  // namespace sdfkit

@@ -1,0 +1,113 @@
+// Framing an arbitrary input image like the training renders: find the object (alpha, a given mask, a plain
+// background detected from the image border, or GrabCut), composite it on the training background (white), and
+// crop a square around it scaled so that the object fills the image as the training renders' objects do.
+//
+// The 137 px network image is the square crop [x0, x0 + side] x [y0, y0 + side] of the input (in the input's
+// continuous pixel coordinates, camera/camera.h) resampled to 137 x 137; a camera of the network image maps back
+// to the input image by camera_in_input().
+#pragma once
+
+#include "camera/camera.h"
+#include "camera/image.h"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sdfkit {
+
+/// How the object is told from the background when the input has no alpha and no mask is given.
+enum class Segmentation {
+  kAuto,     ///< a plain background (detected from the image border) when there is one, else GrabCut
+  kNone,     ///< none: the image is used as it is (its non-white pixels are the object)
+  kGrabCut,  ///< OpenCV's GrabCut seeded from the border (or from FramingSettings::box)
+};
+/// "auto", "none", "grabcut" <-> Segmentation; InvalidInput for another name.
+Segmentation parse_segmentation(const std::string& name);
+std::string segmentation_name(Segmentation s);
+
+/// How the crop is chosen.
+enum class Reframing {
+  kAuto,    ///< keep the image as it is when it is framed like a training render, else crop around the object
+  kAlways,  ///< always crop a square around the object at the training renders' scale
+  kNone,    ///< never: the whole image is resampled to 137 x 137 (the aspect ratio is kept by padding)
+};
+Reframing parse_reframing(const std::string& name);
+std::string reframing_name(Reframing r);
+
+/// An axis-aligned pixel box: columns [x, x + w), rows [y, y + h).
+struct PixelBox {
+  int x = 0, y = 0, w = 0, h = 0;
+};
+/// "X,Y,W,H" -> PixelBox; InvalidInput naming the text otherwise.
+PixelBox parse_pixel_box(const std::string& text);
+
+/// Object framing of the training renders (DISN's 137 px renders of objects in the unit sphere, camera 2.45-3.0
+/// radii away, elevation 25-30 degrees), measured over the 24,960 views of the 1040 training shapes of
+/// `scripts/build_benchmark --preset full` (docs/recon.md, "Input and framing"): the object's box has a longer side
+/// of 0.35 / 0.42 / 0.67 / 0.82 / 0.87 of the image (1st / 5th / 50th / 95th / 99th percentile), its centre lies
+/// at dx = 0.00 (1st-99th percentile -0.09..0.10) and dy = +0.03 (-0.16..0.14) image sides from the image centre.
+struct TrainingFraming {
+  double extent = 0.67;            ///< median longer side of the object's box / image side
+  double extent_min = 0.32;        ///< an input whose object is smaller than this is reframed (1st percentile - 0.03)
+  double extent_max = 0.90;        ///< ... or larger than this (99th percentile + 0.03)
+  double centre_dx = 0.0;          ///< median box centre - image centre, in image sides (x right)
+  double centre_dy = 0.033;        ///< same, y down
+  double centre_tolerance = 0.2;   ///< an input whose box centre is farther from the median is reframed
+};
+
+struct FramingSettings {
+  Segmentation segment = Segmentation::kAuto;
+  Reframing reframe = Reframing::kAuto;
+  std::optional<PixelBox> box;  ///< the object lies inside this box (GrabCut's rectangle; pixels outside are background)
+  TrainingFraming training;
+  /// A border pixel belongs to a plain background when every channel is within this of the border's median
+  /// colour; the background is plain when at least `plain_share` of the border pixels do.
+  double background_tolerance = 0.1;
+  double plain_share = 0.9;
+  /// Smallest object: its box's longer side in input pixels.
+  int min_object_px = 12;
+  /// Refused as "only background" below this share of the (cropped) image covered by the object.
+  double min_object_share = 0.002;
+  /// GrabCut's segmentation is refused when the colour histograms of its object and background overlap more than
+  /// this (Bhattacharyya coefficient; a noise image gives about 1).
+  double max_colour_overlap = 0.95;
+  /// GrabCut runs on the image shrunk to at most this many pixels on its longer side.
+  int grabcut_max_side = 400;
+  int grabcut_iterations = 5;
+};
+
+struct FramedInput {
+  Image image;      ///< 137 x 137 RGBA: the crop, object alpha = mask (composited on white by network_image)
+  Image mask;       ///< input size, 1 channel: object coverage in [0, 1] (what was used)
+  std::string mask_source;  ///< "alpha", "mask", "plain-background", "grabcut", "none"
+  double x0 = 0, y0 = 0, side = 0;  ///< the crop in input pixel coordinates
+  bool reframed = false;            ///< false: the whole (square-padded) image
+  PixelBox object_box;              ///< the object's box in input pixels
+  std::vector<std::string> warnings;  ///< why the input is far from the training renders (empty = not far)
+  double extent = 0;                ///< the object's longer side / crop side (reframed inputs)
+  Image rgb;                        ///< the input's colours (straight, 3 channels) that crops are made of
+  Image alpha;                      ///< their coverage in crops: the mask, or 1 everywhere for mask_source "none"
+};
+
+/// Frame `image` (any size, 1-4 channels). `mask` (optional, the image's size; its alpha, else its luminance =
+/// object) replaces the alpha and any segmentation. `what` names the input in messages. Throws InvalidInput (one
+/// line naming `what`) for an empty image, a mask of another size, an object smaller than
+/// settings.min_object_px, or an image with no object.
+FramedInput frame_input(const Image& image, const Image* mask, const FramingSettings& settings,
+                        const std::string& what);
+
+/// Crops `framed` again so that the object's longer side is `extent` of the crop side and its box centre sits at
+/// the training renders' median place (`training`); recomputes image, x0, y0, side, extent and reframed (true).
+void crop_at_extent(FramedInput& framed, double extent, const TrainingFraming& training = {});
+
+/// A camera of the 137 px network image of `framed` as a camera of the input image (intrinsics mapped through the
+/// crop; same R, t), and its inverse.
+Camera camera_in_input(const Camera& network_camera, const FramedInput& framed, int input_width, int input_height);
+Camera camera_in_network(const Camera& input_camera, const FramedInput& framed);
+
+/// Coverage of the object in a plain-background image: 0 where every channel is within `tolerance` of
+/// `background`, rising to 1 at twice that distance. 1 channel, the image's size.
+Image plain_background_mask(const Image& rgb, const float background[3], double tolerance);
+
+}  // namespace sdfkit

@@ -1,0 +1,216 @@
+#include "recon/framing.h"
+
+#include "camera/camera.h"
+#include "core/error.h"
+#include "core/random.h"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+
+using namespace sdfkit;
+
+namespace {
+
+/// An image of `w` x `h` with a filled ellipse (centre cx, cy; radii rx, ry) of colour (0.8, 0.3, 0.1) on `bg`;
+/// with `alpha`, 4 channels and the ellipse opaque on a transparent background.
+Image ellipse_image(int w, int h, double cx, double cy, double rx, double ry, const float bg[3], bool alpha = false) {
+  Image im(w, h, alpha ? 4 : 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double u = (x + 0.5 - cx) / rx, v = (y + 0.5 - cy) / ry;
+      const bool in = u * u + v * v <= 1.0;
+      const float col[3] = {0.8f, 0.3f, 0.1f};
+      for (int c = 0; c < 3; ++c) im.at(x, y, c) = in ? col[c] : bg[c];
+      if (alpha) im.at(x, y, 3) = in ? 1.f : 0.f;
+    }
+  return im;
+}
+
+/// IoU of the pixels over 0.5 of a 1-channel mask and the ellipse.
+double mask_iou(const Image& mask, double cx, double cy, double rx, double ry) {
+  long inter = 0, uni = 0;
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = 0; x < mask.width; ++x) {
+      const double u = (x + 0.5 - cx) / rx, v = (y + 0.5 - cy) / ry;
+      const bool a = u * u + v * v <= 1.0, b = mask.at(x, y) > 0.5f;
+      inter += a && b;
+      uni += a || b;
+    }
+  return uni == 0 ? 0.0 : static_cast<double>(inter) / static_cast<double>(uni);
+}
+
+/// Box of the network image's pixels with alpha over 0.5.
+PixelBox alpha_box(const Image& rgba) {
+  int x0 = rgba.width, y0 = rgba.height, x1 = -1, y1 = -1;
+  for (int y = 0; y < rgba.height; ++y)
+    for (int x = 0; x < rgba.width; ++x)
+      if (rgba.at(x, y, 3) > 0.5f) {
+        x0 = std::min(x0, x);
+        y0 = std::min(y0, y);
+        x1 = std::max(x1, x);
+        y1 = std::max(y1, y);
+      }
+  return {x0, y0, x1 - x0 + 1, y1 - y0 + 1};
+}
+
+const float kWhite[3] = {1.f, 1.f, 1.f};
+
+}  // namespace
+
+TEST_CASE("framing: a render framed like the training renders passes through unchanged") {
+  // 137 px RGBA, object centred (with the training's small downward offset) at the median extent.
+  const TrainingFraming tf;
+  const double r = 0.5 * tf.extent * 137;
+  const Image im = ellipse_image(137, 137, 68.5 + tf.centre_dx * 137, 68.5 + tf.centre_dy * 137, r, r, kWhite, true);
+  const FramedInput f = frame_input(im, nullptr, FramingSettings{}, "render");
+  CHECK(f.mask_source == "alpha");
+  CHECK_FALSE(f.reframed);
+  CHECK(f.x0 == 0);
+  CHECK(f.side == 137);
+  REQUIRE(f.image.width == 137);
+  double worst = 0;
+  for (int y = 0; y < 137; ++y)
+    for (int x = 0; x < 137; ++x) {
+      worst = std::max(worst, static_cast<double>(std::abs(f.image.at(x, y, 3) - im.at(x, y, 3))));
+      if (im.at(x, y, 3) > 0)
+        for (int c = 0; c < 3; ++c) worst = std::max(worst, static_cast<double>(std::abs(f.image.at(x, y, c) - im.at(x, y, c))));
+    }
+  CHECK(worst < 1e-6);
+}
+
+TEST_CASE("framing: an off-centre object in a non-square image on a plain colour is cropped to the training framing") {
+  const float blue[3] = {0.1f, 0.2f, 0.7f};
+  const double cx = 230, cy = 60, rx = 40, ry = 25;
+  const Image im = ellipse_image(300, 180, cx, cy, rx, ry, blue);
+  const FramedInput f = frame_input(im, nullptr, FramingSettings{}, "photo");
+  CHECK(f.mask_source == "plain-background");
+  CHECK(f.reframed);
+  CHECK(f.warnings.empty());
+  CHECK(mask_iou(f.mask, cx, cy, rx, ry) > 0.97);
+  // In the network image the object's longer side is the training extent and its centre the training centre.
+  const TrainingFraming tf;
+  const PixelBox b = alpha_box(f.image);
+  CHECK(std::abs(b.w - tf.extent * 137) <= 2.0);
+  CHECK(std::abs(b.x + 0.5 * b.w - (0.5 + tf.centre_dx) * 137) <= 1.5);
+  CHECK(std::abs(b.y + 0.5 * b.h - (0.5 + tf.centre_dy) * 137) <= 1.5);
+  // The network image shows the object's colour, not the blue background.
+  const int mx = b.x + b.w / 2, my = b.y + b.h / 2;
+  CHECK(f.image.at(mx, my, 0) == doctest::Approx(0.8).epsilon(0.01));
+  CHECK(f.image.at(2, 2, 3) == 0.f);  // outside the object: transparent (white after compositing)
+}
+
+TEST_CASE("framing: cameras map between the network image and the input image") {
+  const float grey[3] = {0.5f, 0.5f, 0.5f};
+  const Image im = ellipse_image(320, 200, 100, 120, 30, 45, grey);
+  const FramedInput f = frame_input(im, nullptr, FramingSettings{}, "photo");
+  REQUIRE(f.reframed);
+  const Camera net = look_at(30, 25, 2.7);
+  const Camera in = camera_in_input(net, f, 320, 200);
+  CHECK(in.width == 320);
+  CHECK(in.height == 200);
+  const double s = f.side / 137;
+  Rng rng(3);
+  for (int i = 0; i < 20; ++i) {
+    const Vec3 p(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5));
+    const Eigen::Vector2d u = project(net, p), v = project(in, p);
+    CHECK(v.x() == doctest::Approx(f.x0 + s * u.x()).epsilon(1e-9));
+    CHECK(v.y() == doctest::Approx(f.y0 + s * u.y()).epsilon(1e-9));
+  }
+  const Camera back = camera_in_network(in, f);
+  CHECK((back.K - net.K).cwiseAbs().maxCoeff() < 1e-9);
+  CHECK(back.width == 137);
+}
+
+TEST_CASE("framing: GrabCut separates an object from a textured background, the same way every time") {
+  // A blue-green checker texture with noise: the border is not plain.
+  Image im(240, 180, 3);
+  Rng rng(11);
+  for (int y = 0; y < 180; ++y)
+    for (int x = 0; x < 240; ++x) {
+      const bool dark = ((x / 12) + (y / 12)) % 2 == 0;
+      const float n = static_cast<float>(rng.uniform(-0.05, 0.05));
+      im.at(x, y, 0) = 0.1f + n;
+      im.at(x, y, 1) = (dark ? 0.35f : 0.6f) + n;
+      im.at(x, y, 2) = (dark ? 0.45f : 0.75f) + n;
+    }
+  const double cx = 110, cy = 95, rx = 45, ry = 35;
+  for (int y = 0; y < 180; ++y)
+    for (int x = 0; x < 240; ++x) {
+      const double u = (x + 0.5 - cx) / rx, v = (y + 0.5 - cy) / ry;
+      if (u * u + v * v <= 1.0) {
+        im.at(x, y, 0) = 0.85f;
+        im.at(x, y, 1) = 0.25f;
+        im.at(x, y, 2) = 0.1f;
+      }
+    }
+  const FramedInput f = frame_input(im, nullptr, FramingSettings{}, "textured");
+  CHECK(f.mask_source == "grabcut");
+  REQUIRE(f.warnings.size() == 1);
+  CHECK(f.warnings[0].find("GrabCut") != std::string::npos);
+  CHECK(mask_iou(f.mask, cx, cy, rx, ry) > 0.9);
+  const FramedInput again = frame_input(im, nullptr, FramingSettings{}, "textured");
+  CHECK(again.mask.data == f.mask.data);
+  // With a box around the object GrabCut finds it too; the explicit mode gives no warning.
+  FramingSettings st;
+  st.segment = Segmentation::kGrabCut;
+  st.box = PixelBox{55, 50, 110, 90};
+  const FramedInput boxed = frame_input(im, nullptr, st, "textured");
+  CHECK(boxed.warnings.empty());
+  CHECK(mask_iou(boxed.mask, cx, cy, rx, ry) > 0.9);
+}
+
+TEST_CASE("framing: a given mask replaces alpha and segmentation, --segment none keeps the image as it is") {
+  const Image im = ellipse_image(200, 200, 100, 100, 50, 50, kWhite);
+  Image mask(200, 200, 1, 0.f);
+  for (int y = 80; y < 120; ++y)
+    for (int x = 60; x < 140; ++x) mask.at(x, y) = 1.f;
+  const FramedInput f = frame_input(im, &mask, FramingSettings{}, "masked");
+  CHECK(f.mask_source == "mask");
+  CHECK(f.object_box.x == 60);
+  CHECK(f.object_box.w == 80);
+  CHECK(f.object_box.h == 40);
+  FramingSettings none;
+  none.segment = Segmentation::kNone;
+  none.reframe = Reframing::kNone;
+  const FramedInput g = frame_input(ellipse_image(200, 100, 100, 50, 30, 30, kWhite), nullptr, none, "none");
+  CHECK(g.mask_source == "none");
+  CHECK_FALSE(g.reframed);
+  CHECK(g.side == 200);
+  CHECK(g.y0 == -50);  // padded above and below to a square
+  CHECK(g.image.at(68, 5, 3) == 0.f);
+  CHECK(g.image.at(68, 68, 3) == 1.f);
+}
+
+TEST_CASE("framing refuses empty, tiny, background-only and objectless images with one line naming the input") {
+  const FramingSettings st;
+  CHECK_THROWS_AS(frame_input(Image(), nullptr, st, "e.png"), InvalidInput);
+  Image one(1, 1, 3, 0.2f);
+  CHECK_THROWS_WITH_AS(frame_input(one, nullptr, st, "one.png"), doctest::Contains("one.png"), InvalidInput);
+  Image plain(120, 90, 3, 0.7f);
+  CHECK_THROWS_WITH_AS(frame_input(plain, nullptr, st, "plain.png"), doctest::Contains("only background"), InvalidInput);
+  const Image tiny = ellipse_image(300, 300, 150, 150, 4, 4, kWhite);
+  CHECK_THROWS_WITH_AS(frame_input(tiny, nullptr, st, "tiny.png"), doctest::Contains("too small"), InvalidInput);
+  Image noise(200, 150, 3);
+  Rng rng(5);
+  for (float& v : noise.data) v = static_cast<float>(rng.uniform());
+  CHECK_THROWS_WITH_AS(frame_input(noise, nullptr, st, "noise.png"), doctest::Contains("noise.png"), InvalidInput);
+  Image wrong(10, 10, 1, 1.f);
+  const Image im = ellipse_image(100, 100, 50, 50, 30, 30, kWhite);
+  CHECK_THROWS_WITH_AS(frame_input(im, &wrong, st, "m.png"), doctest::Contains("mask is 10x10"), InvalidInput);
+  CHECK_THROWS_AS(parse_pixel_box("1,2,3"), InvalidInput);
+  CHECK_THROWS_AS(parse_pixel_box("1,2,0,4"), InvalidInput);
+  CHECK(parse_pixel_box("4,5,6,7").h == 7);
+  CHECK_THROWS_AS(parse_segmentation("magic"), InvalidInput);
+  CHECK(parse_reframing("always") == Reframing::kAlways);
+}
+
+TEST_CASE("framing warns when the object touches the border or is small") {
+  const Image im = ellipse_image(200, 200, 20, 100, 40, 20, kWhite);  // cut by the left border
+  const FramedInput f = frame_input(im, nullptr, FramingSettings{}, "cut");
+  REQUIRE_FALSE(f.warnings.empty());
+  CHECK(f.warnings[0].find("border") != std::string::npos);
+  const FramedInput s = frame_input(ellipse_image(400, 400, 200, 200, 12, 10, kWhite), nullptr, FramingSettings{}, "small");
+  REQUIRE(s.warnings.size() == 1);
+  CHECK(s.warnings[0].find("small") != std::string::npos);
+}
