@@ -45,15 +45,16 @@ PixelBox parse_pixel_box(const std::string& text);
 /// Object framing of the training renders (DISN's 137 px renders of objects in the unit sphere, camera 2.45-3.0
 /// radii away, elevation 25-30 degrees), measured over the 24,960 views of the 1040 training shapes of
 /// `scripts/build_benchmark --preset full` (docs/recon.md, "Input and framing"): the object's box has a longer side
-/// of 0.35 / 0.42 / 0.67 / 0.82 / 0.87 of the image (1st / 5th / 50th / 95th / 99th percentile), its centre lies
-/// at dx = 0.00 (1st-99th percentile -0.09..0.10) and dy = +0.03 (-0.16..0.14) image sides from the image centre.
+/// of 0.27 / 0.42 / 0.67 / 0.82 / 0.97 of the image (minimum / 5th / 50th / 95th percentile / maximum); its centre
+/// lies dx = 0.00 (-0.14..0.15) and dy = +0.03 (-0.20..0.17) image sides from the image centre (median, range).
+/// An image is "framed like the renders" (kept as it is by Reframing::kAuto) within these ranges plus a margin.
 struct TrainingFraming {
   double extent = 0.67;            ///< median longer side of the object's box / image side
-  double extent_min = 0.32;        ///< an input whose object is smaller than this is reframed (1st percentile - 0.03)
-  double extent_max = 0.90;        ///< ... or larger than this (99th percentile + 0.03)
+  double extent_min = 0.25;        ///< smallest object size kept as it is (the renders' minimum - 0.02)
+  double extent_max = 1.0;         ///< largest
   double centre_dx = 0.0;          ///< median box centre - image centre, in image sides (x right)
   double centre_dy = 0.033;        ///< same, y down
-  double centre_tolerance = 0.2;   ///< an input whose box centre is farther from the median is reframed
+  double centre_tolerance = 0.25;  ///< largest distance of the box centre from the median kept as it is
 };
 
 struct FramingSettings {

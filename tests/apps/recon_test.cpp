@@ -259,3 +259,46 @@ TEST_CASE("recon outputs: the format follows -o, a folder only for a folder inpu
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(fs::is_regular_file(dir / "outdir" / "a.stl"));
 }
+
+// Issue 19: an installed sdfkit finds its models next to itself; SDFKIT_MODEL_DIR overrides that; no model folder
+// at all is a one-line error that says what to do.
+TEST_CASE("cmake --install: the installed sdfkit finds the shipped models, SDFKIT_MODEL_DIR overrides them") {
+  REQUIRE(have_models());
+  const fs::path dir = test::scratch_dir("recon_cli") / "install";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path build = fs::path(SDFKIT_EXE).parent_path().parent_path();
+  const int rc = std::system(("cmake --install " + build.string() + " --prefix " + (dir / "prefix").string() +
+                              " > " + (dir / "install.log").string() + " 2>&1").c_str());
+  REQUIRE(rc == 0);
+  const fs::path exe = dir / "prefix" / "bin" / "sdfkit";
+  REQUIRE(fs::exists(exe));
+  CHECK(fs::is_regular_file(dir / "prefix" / "share" / "sdfkit" / "models" / "sdf.ckpt"));
+  CHECK(fs::is_regular_file(dir / "prefix" / "share" / "sdfkit" / "models" / "pose.ckpt"));
+  const std::string img = kSource + "/data/examples/chair_0003.png";
+  auto run_exe = [&](const std::string& env, const std::string& args) {
+    const std::string out = (dir / "out.txt").string(), err = (dir / "err.txt").string();
+    const int status = std::system((env + " " + exe.string() + " " + args + " > " + out + " 2> " + err).c_str());
+    test::CliRun r;
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = read_file(out);
+    r.err = read_file(err);
+    return r;
+  };
+  test::CliRun r = run_exe("env -u SDFKIT_MODEL_DIR", "recon " + img + " -o " + (dir / "a.obj").string() + " --res 33 --no-preview");
+  CHECK_MESSAGE(r.code == 0, r.err);
+  CHECK(fs::exists(dir / "a.obj"));
+  // A model folder without models: the error names the missing file.
+  fs::create_directories(dir / "empty");
+  r = run_exe("SDFKIT_MODEL_DIR=" + (dir / "empty").string(), "recon " + img + " -o " + (dir / "b.obj").string() + " --res 33");
+  CHECK(r.code == 1);
+  CHECK(r.err.find((dir / "empty" / "sdf.ckpt").string()) != std::string::npos);
+  // No model folder at all (an executable copied elsewhere, no SDFKIT_MODEL_DIR): say what to do.
+  fs::create_directories(dir / "loose");
+  fs::copy_file(exe, dir / "loose" / "sdfkit");
+  const std::string out = (dir / "out.txt").string(), err = (dir / "err.txt").string();
+  const int status = std::system(("env -u SDFKIT_MODEL_DIR " + (dir / "loose" / "sdfkit").string() + " recon " + img +
+                                  " -o " + (dir / "c.obj").string() + " > " + out + " 2> " + err).c_str());
+  CHECK(WEXITSTATUS(status) == 1);
+  CHECK(read_file(err).find("SDFKIT_MODEL_DIR") != std::string::npos);
+}
