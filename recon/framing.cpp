@@ -401,19 +401,23 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
                                std::abs(dx) <= tf.centre_tolerance && std::abs(dy) <= tf.centre_tolerance;
     reframe = !like_training;
   }
-  f.rgb = std::move(rgb);
-  f.alpha = f.mask;
-  if (f.mask_source == "none") std::fill(f.alpha.data.begin(), f.alpha.data.end(), 1.f);  // the image as it is
+  // 4. The network image: the crop of the object (premultiplied by its coverage) at 137 px. Reframed: the object's
+  // longer side is the renders' median share of the crop, its box centre at their median place.
   if (reframe) {
-    crop_at_extent(f, tf.extent, tf);
+    f.side = longer / tf.extent;
+    f.x0 = bx - (0.5 + tf.centre_dx) * f.side;
+    f.y0 = by - (0.5 + tf.centre_dy) * f.side;
   } else {
     f.side = std::max(W, H);
     f.x0 = 0.5 * (W - f.side);
     f.y0 = 0.5 * (H - f.side);
-    f.extent = longer / f.side;
-    f.reframed = false;
-    // 4. The network image: the crop of the object (premultiplied by its coverage) at 137 px.
-    f.image = resample_crop(f.rgb, f.alpha, f.x0, f.y0, f.side, kNetImageSize);
+  }
+  f.extent = longer / f.side;
+  f.reframed = reframe;
+  if (f.mask_source == "none") {  // the image as it is
+    f.image = resample_crop(rgb, Image(W, H, 1, 1.f), f.x0, f.y0, f.side, kNetImageSize);
+  } else {
+    f.image = resample_crop(rgb, f.mask, f.x0, f.y0, f.side, kNetImageSize);
   }
   long shown = 0;
   for (int y = 0; y < kNetImageSize; ++y)
@@ -429,19 +433,6 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
                        std::to_string(static_cast<long>(n)) +
                        " pixels of the framed image differ from the white background; mask source " + f.mask_source + ")");
   return f;
-}
-
-void crop_at_extent(FramedInput& f, double extent, const TrainingFraming& tf) {
-  require(extent > 0 && extent <= 4, "crop_at_extent: extent must be in (0, 4]");
-  require(!f.rgb.empty() && !f.alpha.empty() && f.object_box.w > 0, "crop_at_extent: nothing was framed");
-  const PixelBox& ob = f.object_box;
-  const double bx = ob.x + 0.5 * ob.w, by = ob.y + 0.5 * ob.h;
-  f.side = std::max(ob.w, ob.h) / extent;
-  f.x0 = bx - (0.5 + tf.centre_dx) * f.side;
-  f.y0 = by - (0.5 + tf.centre_dy) * f.side;
-  f.extent = extent;
-  f.reframed = true;
-  f.image = resample_crop(f.rgb, f.alpha, f.x0, f.y0, f.side, kNetImageSize);
 }
 
 Camera camera_in_input(const Camera& network_camera, const FramedInput& framed, int input_width, int input_height) {

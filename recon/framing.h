@@ -86,9 +86,7 @@ struct FramedInput {
   bool reframed = false;            ///< false: the whole (square-padded) image
   PixelBox object_box;              ///< the object's box in input pixels
   std::vector<std::string> warnings;  ///< why the input is far from the training renders (empty = not far)
-  double extent = 0;                ///< the object's longer side / crop side (reframed inputs)
-  Image rgb;                        ///< the input's colours (straight, 3 channels) that crops are made of
-  Image alpha;                      ///< their coverage in crops: the mask, or 1 everywhere for mask_source "none"
+  double extent = 0;                ///< the object's longer side / crop side
 };
 
 /// Frame `image` (any size, 1-4 channels). `mask` (optional, the image's size; its alpha, else its luminance =
@@ -97,10 +95,6 @@ struct FramedInput {
 /// settings.min_object_px, or an image with no object.
 FramedInput frame_input(const Image& image, const Image* mask, const FramingSettings& settings,
                         const std::string& what);
-
-/// Crops `framed` again so that the object's longer side is `extent` of the crop side and its box centre sits at
-/// the training renders' median place (`training`); recomputes image, x0, y0, side, extent and reframed (true).
-void crop_at_extent(FramedInput& framed, double extent, const TrainingFraming& training = {});
 
 /// A camera of the 137 px network image of `framed` as a camera of the input image (intrinsics mapped through the
 /// crop; same R, t), and its inverse.
