@@ -7,6 +7,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "core/primitives.h"
 #include "extract/adaptive.h"

@@ -8,6 +8,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/primitives.h"
 #include "core/random.h"
 #include "metrics/chamfer.h"

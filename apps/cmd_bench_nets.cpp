@@ -4,6 +4,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/random.h"
 #include "nets/layers.h"
 

@@ -6,6 +6,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "core/primitives.h"
 #include "core/random.h"
@@ -120,7 +121,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
     for (const auto& sh : shapes) {
       PrepareSettings s;
       s.grid.band = o->band;
-      s.grid.sign = o->sign == "winding" ? SignMethod::WindingNumber : SignMethod::Auto;
+      s.grid.sign = o->sign == "winding" ? SignMethod::kWindingNumber : SignMethod::kAuto;
       std::vector<double> t1, t2, c1, c2;
       PrepareStatus st;
       for (int threads : {2, 1}) {  // 1 thread last: its stage times are the ones printed
@@ -228,7 +229,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
       const double pct = 100.0 * static_cast<double>(st.active_voxels) / static_cast<double>(lattice);
       std::fprintf(text, "%-22s %7ld %5s %8.3f %8.3f %8.3f %8.3f %10ld %7.2f%% %8.2f %9.1f %9.2f %9.2f %9.5f %9.5f %7.2f%%\n",
                   sh.name.c_str(), static_cast<long>(sh.mesh.F.rows()),
-                  st.sign == SignMethod::PseudoNormal ? "pn" : "wn", m1, median(c1), m2, median(c2),
+                  st.sign == SignMethod::kPseudoNormal ? "pn" : "wn", m1, median(c1), m2, median(c2),
                   st.active_voxels, pct, st.grid_bytes / 1e6, lattice * 4e-6, dense_s, dense_cpu, mean_err, max_err,
                   100.0 * sign_ok / std::max<double>(1, static_cast<double>(P.rows())));
       std::fprintf(text, "  stages (wall s, last 1-thread run): mesh %.3f | grid: setup %.3f band %.3f insert %.3f sign %.3f (%ld probes) | "

@@ -4,12 +4,13 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "metrics/protocols.h"
 #include "nets/dataset.h"
-#include "recon/recon.h"
 #include "nets/plot.h"
 #include "nets/sdf_train.h"
+#include "recon/recon.h"
 
 #include <algorithm>
 #include <cmath>
@@ -64,7 +65,7 @@ std::function<int()> setup_bench_recon(CLI::App& app) {
     const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
                                          est ? require_model_path(o->pose_model, "--pose-model") : std::string());
     metrics::ProtocolSettings ps;
-    ps.protocol = metrics::Protocol::disn;
+    ps.protocol = metrics::Protocol::kDisn;
     ps.with_emd = false;
     struct Row {
       int res;

@@ -5,6 +5,7 @@
 #include "apps/command.h"
 #include "camera/views.h"
 #include "core/error.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "core/primitives.h"
 

@@ -4,6 +4,7 @@
 #include "apps/bench_util.h"
 #include "apps/command.h"
 #include "core/error.h"
+#include "core/json.h"
 #include "synth/benchmark.h"
 #include "synth/categories.h"
 

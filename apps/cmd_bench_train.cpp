@@ -6,6 +6,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "nets/pose_train.h"
 #include "nets/sdf_train.h"
 

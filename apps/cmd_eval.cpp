@@ -3,6 +3,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "metrics/protocols.h"
 #include "metrics/report.h"
@@ -86,10 +87,10 @@ struct Opts {
 /// A flag that does not apply under the chosen protocol or mode is an error, not silently ignored.
 void check_flags_apply(const Opts& o, bool folders) {
   const Protocol p = parse_protocol(o.protocol);
-  if (p == Protocol::onet && (o.emd_given || o.no_emd))
+  if (p == Protocol::kOnet && (o.emd_given || o.no_emd))
     throw InvalidInput(std::string(o.emd_given ? "--emd" : "--no-emd") +
                        " does not apply to --protocol onet, which reports no EMD");
-  if (p == Protocol::tmnet && o.no_iou)
+  if (p == Protocol::kTmnet && o.no_iou)
     throw InvalidInput("--no-iou does not apply to --protocol tmnet, which reports no IoU");
   if (!folders && o.split_given) throw InvalidInput("--split applies to folders, not to a pair of files");
   if (!folders && o.jobs_given) throw InvalidInput("--jobs applies to folders, not to a pair of files");
@@ -247,7 +248,7 @@ int run_folders(const Opts& o) {
   Json js = summary_json(summary, records);
   js["extra_predictions"] = extra;
   js["seed"] = s.seed;
-  js["emd_method"] = s.protocol == Protocol::onet ? Json(nullptr) : Json(to_string(s.emd));
+  js["emd_method"] = s.protocol == Protocol::kOnet ? Json(nullptr) : Json(to_string(s.emd));
   if (!o.out.empty()) {
     write_text_atomic((fs::path(o.out) / "per_shape.csv").string(), per_shape_csv(records, s.protocol));
     write_text_atomic((fs::path(o.out) / "table.md").string(), table);

@@ -3,6 +3,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "nets/pose_train.h"
 #include "sdf/prepare.h"

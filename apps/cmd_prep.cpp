@@ -6,6 +6,7 @@
 #include "camera/views.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "core/random.h"
 #include "sdf/normalize.h"
@@ -205,10 +206,10 @@ std::function<int()> setup_prep(CLI::App& app) {
     s.up = parse_up_axis(o->up);
     s.grid.voxel_size = o->voxel;
     s.grid.band = o->band;
-    s.grid.sign = o->sign == "winding" ? SignMethod::WindingNumber : SignMethod::Auto;
+    s.grid.sign = o->sign == "winding" ? SignMethod::kWindingNumber : SignMethod::kAuto;
     s.samples.count = o->samples;
     s.samples.uniform_share = o->uniform_share;
-    s.gt = o->gt == "input" ? GtSource::Input : o->gt == "iso" ? GtSource::IsoSurface : GtSource::Auto;
+    s.gt = o->gt == "input" ? GtSource::kInput : o->gt == "iso" ? GtSource::kIsoSurface : GtSource::kAuto;
     s.overwrite = o->overwrite;
     if (o->band > 0 && o->band < o->voxel)
       throw InvalidInput("--band " + std::to_string(o->band) + ": must be 0 (3 voxels) or at least one voxel (" +

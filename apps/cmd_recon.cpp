@@ -4,6 +4,7 @@
 #include "camera/image.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "recon/recon.h"
 

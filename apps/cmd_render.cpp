@@ -5,6 +5,7 @@
 #include "camera/views.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "sdf/normalize.h"
 

@@ -1,6 +1,7 @@
 // `sdfkit synth -o DIR`: write the procedural ShapeNet-like benchmark (13 categories of DISN's Table 1).
 #include "apps/command.h"
 #include "core/error.h"
+#include "core/json.h"
 #include "synth/benchmark.h"
 #include "synth/categories.h"
 #include "synth/sheet.h"

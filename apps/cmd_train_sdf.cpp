@@ -2,6 +2,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "nets/comm.h"
 #include "nets/sdf_train.h"
 

@@ -1,6 +1,7 @@
 #include "camera/camera.h"
 
 #include "core/error.h"
+#include "core/json.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

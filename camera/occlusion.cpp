@@ -9,19 +9,19 @@
 namespace sdfkit {
 
 OcclusionMode parse_occlusion_mode(const std::string& name) {
-  if (name == "none") return OcclusionMode::none;
-  if (name == "left") return OcclusionMode::left;
-  if (name == "right") return OcclusionMode::right;
-  if (name == "rect") return OcclusionMode::rect;
+  if (name == "none") return OcclusionMode::kNone;
+  if (name == "left") return OcclusionMode::kLeft;
+  if (name == "right") return OcclusionMode::kRight;
+  if (name == "rect") return OcclusionMode::kRect;
   throw InvalidInput("unknown occlusion mode '" + name + "' (use none, left, right or rect)");
 }
 
 std::string to_string(OcclusionMode mode) {
   switch (mode) {
-    case OcclusionMode::none: return "none";
-    case OcclusionMode::left: return "left";
-    case OcclusionMode::right: return "right";
-    case OcclusionMode::rect: return "rect";
+    case OcclusionMode::kNone: return "none";
+    case OcclusionMode::kLeft: return "left";
+    case OcclusionMode::kRight: return "right";
+    case OcclusionMode::kRect: return "rect";
   }
   return "none";
 }
@@ -32,7 +32,7 @@ Image apply_occlusion(Image& image, const OcclusionSettings& st, uint64_t seed) 
           "apply_occlusion: need rectangles >= 0 and 0 < min_size <= max_size <= 1");
   const int W = image.width, H = image.height;
   Image mask(W, H, 1, 0.0f);
-  if (st.mode == OcclusionMode::none) return mask;
+  if (st.mode == OcclusionMode::kNone) return mask;
 
   // The object's extent: bounding box of alpha > 0 (whole image without alpha or when nothing is visible).
   int bx0 = 0, bx1 = W - 1, by0 = 0, by1 = H - 1;
@@ -58,13 +58,13 @@ Image apply_occlusion(Image& image, const OcclusionSettings& st, uint64_t seed) 
     mask.at(x, y) = 1.0f;
     for (int c = 0; c < image.channels; ++c) image.at(x, y, c) = 0.0f;
   };
-  if (st.mode == OcclusionMode::left || st.mode == OcclusionMode::right) {
+  if (st.mode == OcclusionMode::kLeft || st.mode == OcclusionMode::kRight) {
     // A column is in the left half when its centre lies left of the split, so the halves partition the image.
     const double split = st.split_at_object ? 0.5 * (bx0 + bx1 + 1) : 0.5 * W;
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x) {
         const bool left = x + 0.5 < split;
-        if (left == (st.mode == OcclusionMode::left)) remove(x, y);
+        if (left == (st.mode == OcclusionMode::kLeft)) remove(x, y);
       }
     return mask;
   }

@@ -10,14 +10,14 @@
 
 namespace sdfkit {
 
-enum class OcclusionMode { none, left, right, rect };
+enum class OcclusionMode { kNone, kLeft, kRight, kRect };
 
 /// "none" | "left" | "right" | "rect"; InvalidInput otherwise.
 OcclusionMode parse_occlusion_mode(const std::string& name);
 std::string to_string(OcclusionMode mode);
 
 struct OcclusionSettings {
-  OcclusionMode mode = OcclusionMode::none;
+  OcclusionMode mode = OcclusionMode::kNone;
   /// left/right: split at the centre column of the object's alpha bounding box (true) or at the image centre
   /// (false: the occlusion paper zeroes an image half; with look-at renders both are close).
   bool split_at_object = true;

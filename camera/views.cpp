@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/random.h"
 
 #include <tbb/parallel_for.h>
@@ -50,7 +51,7 @@ std::vector<Camera> render_view_set(const Mesh& normalized_mesh, const std::stri
                                     const ViewSetSettings& settings, uint64_t seed) {
   const std::vector<Camera> cams = view_set_cameras(settings, seed);
   const MeshRenderer renderer(normalized_mesh, settings.render);
-  const bool occlude = settings.occlusion.mode != OcclusionMode::none;
+  const bool occlude = settings.occlusion.mode != OcclusionMode::kNone;
   tbb::parallel_for(0, settings.views, [&](int k) {
     const std::string base = views_dir + "/" + view_name(k, settings.views);
     RenderResult r = renderer.render(cams[static_cast<size_t>(k)]);

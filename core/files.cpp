@@ -1,6 +1,7 @@
 #include "core/files.h"
 
 #include "core/error.h"
+#include "core/json.h"
 
 #include <signal.h>
 #include <unistd.h>

@@ -1,8 +1,9 @@
 // Files written the safe way (temporary file + rename), .npy arrays, JSON files, content hashes.
 #pragma once
 
+#include "core/json_fwd.h"
+
 #include <Eigen/Core>
-#include <nlohmann/json.hpp>
 #include <cstdint>
 #include <functional>
 #include <ostream>
@@ -10,8 +11,6 @@
 #include <vector>
 
 namespace sdfkit {
-
-using Json = nlohmann::json;
 
 /// Write a file atomically: `write` fills a stream on `path + ".tmp.<pid>"`, which is renamed onto `path`
 /// only when it succeeded, so a crash or error never leaves a half-written `path`. Parent folders are

@@ -15,42 +15,42 @@
 namespace sdfkit {
 namespace {
 
-enum class PlyType { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64, Unknown };
+enum class PlyType { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kFloat32, kFloat64, kUnknown };
 
 PlyType ply_type(const std::string& t) {
-  if (t == "char" || t == "int8") return PlyType::Int8;
-  if (t == "uchar" || t == "uint8") return PlyType::UInt8;
-  if (t == "short" || t == "int16") return PlyType::Int16;
-  if (t == "ushort" || t == "uint16") return PlyType::UInt16;
-  if (t == "int" || t == "int32") return PlyType::Int32;
-  if (t == "uint" || t == "uint32") return PlyType::UInt32;
-  if (t == "float" || t == "float32") return PlyType::Float32;
-  if (t == "double" || t == "float64") return PlyType::Float64;
-  return PlyType::Unknown;
+  if (t == "char" || t == "int8") return PlyType::kInt8;
+  if (t == "uchar" || t == "uint8") return PlyType::kUInt8;
+  if (t == "short" || t == "int16") return PlyType::kInt16;
+  if (t == "ushort" || t == "uint16") return PlyType::kUInt16;
+  if (t == "int" || t == "int32") return PlyType::kInt32;
+  if (t == "uint" || t == "uint32") return PlyType::kUInt32;
+  if (t == "float" || t == "float32") return PlyType::kFloat32;
+  if (t == "double" || t == "float64") return PlyType::kFloat64;
+  return PlyType::kUnknown;
 }
 
 size_t type_size(PlyType t) {
   switch (t) {
-    case PlyType::Int8: case PlyType::UInt8: return 1;
-    case PlyType::Int16: case PlyType::UInt16: return 2;
-    case PlyType::Int32: case PlyType::UInt32: case PlyType::Float32: return 4;
-    case PlyType::Float64: return 8;
-    case PlyType::Unknown: return 0;
+    case PlyType::kInt8: case PlyType::kUInt8: return 1;
+    case PlyType::kInt16: case PlyType::kUInt16: return 2;
+    case PlyType::kInt32: case PlyType::kUInt32: case PlyType::kFloat32: return 4;
+    case PlyType::kFloat64: return 8;
+    case PlyType::kUnknown: return 0;
   }
   return 0;
 }
 
-bool is_integer(PlyType t) { return t != PlyType::Float32 && t != PlyType::Float64; }
+bool is_integer(PlyType t) { return t != PlyType::kFloat32 && t != PlyType::kFloat64; }
 
 /// What a property means to the mesh.
-enum class Role { Skip, X, Y, Z, Red, Green, Blue, Indices };
+enum class Role { kSkip, kX, kY, kZ, kRed, kGreen, kBlue, kIndices };
 
 struct Property {
   std::string name;
-  PlyType type = PlyType::Unknown;        ///< scalar type, or list item type
-  PlyType count_type = PlyType::Unknown;  ///< list count type; Unknown for scalars
-  Role role = Role::Skip;
-  [[nodiscard]] bool list() const { return count_type != PlyType::Unknown; }
+  PlyType type = PlyType::kUnknown;        ///< scalar type, or list item type
+  PlyType count_type = PlyType::kUnknown;  ///< list count type; Unknown for scalars
+  Role role = Role::kSkip;
+  [[nodiscard]] bool list() const { return count_type != PlyType::kUnknown; }
 };
 
 struct Element {
@@ -77,15 +77,15 @@ class BodyReader {
     if (swap)
       for (size_t i = 0; i < n / 2; ++i) std::swap(b[i], b[n - 1 - i]);
     switch (t) {
-      case PlyType::Int8: { int8_t v; std::memcpy(&v, b, 1); return v; }
-      case PlyType::UInt8: return b[0];
-      case PlyType::Int16: { int16_t v; std::memcpy(&v, b, 2); return v; }
-      case PlyType::UInt16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
-      case PlyType::Int32: { int32_t v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::UInt32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::Float32: { float v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::Float64: { double v; std::memcpy(&v, b, 8); return v; }
-      case PlyType::Unknown: break;
+      case PlyType::kInt8: { int8_t v; std::memcpy(&v, b, 1); return v; }
+      case PlyType::kUInt8: return b[0];
+      case PlyType::kInt16: { int16_t v; std::memcpy(&v, b, 2); return v; }
+      case PlyType::kUInt16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
+      case PlyType::kInt32: { int32_t v; std::memcpy(&v, b, 4); return v; }
+      case PlyType::kUInt32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
+      case PlyType::kFloat32: { float v; std::memcpy(&v, b, 4); return v; }
+      case PlyType::kFloat64: { double v; std::memcpy(&v, b, 8); return v; }
+      case PlyType::kUnknown: break;
     }
     return 0;
   }
@@ -223,13 +223,13 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
         if (!(in >> ct >> it >> p.name)) throw bad();
         p.count_type = ply_type(ct);
         p.type = ply_type(it);
-        if (p.count_type == PlyType::Unknown || p.type == PlyType::Unknown)
+        if (p.count_type == PlyType::kUnknown || p.type == PlyType::kUnknown)
           throw IoError(name + ": unknown PLY type in '" + line + "'");
         if (!is_integer(p.count_type)) throw IoError(name + ": PLY list count must be an integer type ('" + line + "')");
       } else {
         p.type = ply_type(t);
         if (!(in >> p.name)) throw bad();
-        if (p.type == PlyType::Unknown) throw IoError(name + ": unknown PLY type '" + t + "' in '" + line + "'");
+        if (p.type == PlyType::kUnknown) throw IoError(name + ": unknown PLY type '" + t + "' in '" + line + "'");
       }
       elements.back().props.push_back(p);
     } else {
@@ -249,20 +249,20 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
       vertex = &el;
       for (auto& p : el.props) {
         if (p.list()) continue;
-        if (p.name == "x") p.role = Role::X;
-        else if (p.name == "y") p.role = Role::Y;
-        else if (p.name == "z") p.role = Role::Z;
-        else if (p.name == "red" || p.name == "diffuse_red") p.role = Role::Red;
-        else if (p.name == "green" || p.name == "diffuse_green") p.role = Role::Green;
-        else if (p.name == "blue" || p.name == "diffuse_blue") p.role = Role::Blue;
+        if (p.name == "x") p.role = Role::kX;
+        else if (p.name == "y") p.role = Role::kY;
+        else if (p.name == "z") p.role = Role::kZ;
+        else if (p.name == "red" || p.name == "diffuse_red") p.role = Role::kRed;
+        else if (p.name == "green" || p.name == "diffuse_green") p.role = Role::kGreen;
+        else if (p.name == "blue" || p.name == "diffuse_blue") p.role = Role::kBlue;
       }
     } else if (el.name == "face" && !face) {
       face = &el;
       for (auto& p : el.props)
         if (p.list() && (p.name == "vertex_indices" || p.name == "vertex_index") &&
-            std::none_of(el.props.begin(), el.props.end(), [](const Property& q) { return q.role == Role::Indices; })) {
+            std::none_of(el.props.begin(), el.props.end(), [](const Property& q) { return q.role == Role::kIndices; })) {
           if (!is_integer(p.type)) throw IoError(name + ": PLY face indices must be an integer type");
-          p.role = Role::Indices;
+          p.role = Role::kIndices;
         }
     } else {
       ++inf.skipped_elements;
@@ -271,11 +271,11 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
   if (!vertex) throw IoError(name + ": PLY file has no vertex element");
   int has[8] = {0};
   for (const auto& p : vertex->props) ++has[static_cast<int>(p.role)];
-  if (!has[static_cast<int>(Role::X)] || !has[static_cast<int>(Role::Y)] || !has[static_cast<int>(Role::Z)])
+  if (!has[static_cast<int>(Role::kX)] || !has[static_cast<int>(Role::kY)] || !has[static_cast<int>(Role::kZ)])
     throw IoError(name + ": PLY vertex element lacks an x, y or z property");
-  const bool colored = has[static_cast<int>(Role::Red)] && has[static_cast<int>(Role::Green)] &&
-                       has[static_cast<int>(Role::Blue)];
-  if (face && std::none_of(face->props.begin(), face->props.end(), [](const Property& p) { return p.role == Role::Indices; }))
+  const bool colored = has[static_cast<int>(Role::kRed)] && has[static_cast<int>(Role::kGreen)] &&
+                       has[static_cast<int>(Role::kBlue)];
+  if (face && std::none_of(face->props.begin(), face->props.end(), [](const Property& p) { return p.role == Role::kIndices; }))
     throw IoError(name + ": PLY face element has no vertex_indices list");
   inf.vertices = vertex->count;
   inf.faces = face ? face->count : 0;
@@ -312,12 +312,12 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
           }
           const double v = body.read(p.type, ename, i);
           switch (p.role) {
-            case Role::X: mesh.V(i, 0) = v; break;
-            case Role::Y: mesh.V(i, 1) = v; break;
-            case Role::Z: mesh.V(i, 2) = v; break;
-            case Role::Red: case Role::Green: case Role::Blue:
+            case Role::kX: mesh.V(i, 0) = v; break;
+            case Role::kY: mesh.V(i, 1) = v; break;
+            case Role::kZ: mesh.V(i, 2) = v; break;
+            case Role::kRed: case Role::kGreen: case Role::kBlue:
               if (colored)
-                mesh.colors(i, static_cast<int>(p.role) - static_cast<int>(Role::Red)) =
+                mesh.colors(i, static_cast<int>(p.role) - static_cast<int>(Role::kRed)) =
                     static_cast<float>(is_integer(p.type) ? v / 255.0 : v);
               break;
             default: break;
@@ -337,7 +337,7 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
             continue;
           }
           const long count = body.list_length(body.read(p.count_type, ename, f), ename, f);
-          if (p.role != Role::Indices) {
+          if (p.role != Role::kIndices) {
             body.skip(p.type, count, ename, f);
             continue;
           }

@@ -39,14 +39,14 @@ double distance(const Points& a, Eigen::Index i, const Points& b, Eigen::Index j
 }  // namespace
 
 EmdMethod parse_emd_method(const std::string& name) {
-  if (name == "exact") return EmdMethod::exact;
-  if (name == "approx") return EmdMethod::approx;
+  if (name == "exact") return EmdMethod::kExact;
+  if (name == "approx") return EmdMethod::kApprox;
   throw InvalidInput("unknown EMD method '" + name + "' (expected exact or approx)");
 }
-std::string to_string(EmdMethod m) { return m == EmdMethod::exact ? "exact" : "approx"; }
+std::string to_string(EmdMethod m) { return m == EmdMethod::kExact ? "exact" : "approx"; }
 
 EmdResult emd(const Points& a, const Points& b, const EmdSettings& settings) {
-  return settings.method == EmdMethod::exact ? emd_exact(a, b, settings) : emd_approx(a, b);
+  return settings.method == EmdMethod::kExact ? emd_exact(a, b, settings) : emd_approx(a, b);
 }
 
 namespace {
@@ -405,7 +405,7 @@ EmdResult emd_exact(const Points& a, const Points& b, const EmdSettings& setting
   const double diag = box.extent().norm();
   EmdResult result;
   result.n = n;
-  result.method = EmdMethod::exact;
+  result.method = EmdMethod::kExact;
   if (!(diag > 0)) {  // every point at the same place
     result.match.resize(n);
     for (int i = 0; i < n; ++i) result.match[i] = i;
@@ -536,7 +536,7 @@ EmdResult emd_approx(const Points& a, const Points& b) {
   }
   EmdResult r;
   r.n = n;
-  r.method = EmdMethod::approx;
+  r.method = EmdMethod::kApprox;
   Eigen::VectorXd row_cost(n);
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, 32), [&](const tbb::blocked_range<Eigen::Index>& rr) {
     for (Eigen::Index i = rr.begin(); i != rr.end(); ++i) {

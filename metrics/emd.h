@@ -31,13 +31,13 @@
 
 namespace sdfkit::metrics {
 
-enum class EmdMethod { exact, approx };
+enum class EmdMethod { kExact, kApprox };
 /// "exact" / "approx" <-> EmdMethod; InvalidInput on anything else.
 EmdMethod parse_emd_method(const std::string& name);
 std::string to_string(EmdMethod m);
 
 struct EmdSettings {
-  EmdMethod method = EmdMethod::exact;
+  EmdMethod method = EmdMethod::kExact;
   int candidates = 24;        ///< exact: nearest neighbours per point and direction in the first candidate graph
   double tolerance = 1e-9;   ///< exact: bound on total - optimum, relative to the bounding-box diagonal
 };
@@ -52,7 +52,7 @@ struct EmdResult {
   int rounds = 0;              ///< exact: certificate rounds (1 = the first candidate graph was enough)
   long bids = 0;               ///< exact: auction bids (coarse prices)
   long path_scans = 0;         ///< exact: columns settled by the shortest-path searches
-  EmdMethod method = EmdMethod::exact;
+  EmdMethod method = EmdMethod::kExact;
 };
 
 /// EMD of a and b. Throws InvalidInput (naming both sizes) if the sets differ in size — resample first, e.g.

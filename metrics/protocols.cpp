@@ -1,6 +1,7 @@
 #include "metrics/protocols.h"
 
 #include "core/error.h"
+#include "core/json.h"
 #include "core/random.h"
 #include "metrics/chamfer.h"
 #include "metrics/iou.h"
@@ -38,10 +39,10 @@ struct Samples {
 Samples draw(const Mesh& m, Protocol p, long n, uint64_t seed, const std::string& what) {
   Samples s;
   if (is_point_cloud(m)) {
-    CloudSampling how = CloudSampling::as_given;
+    CloudSampling how = CloudSampling::kAsGiven;
     s.points = sample_cloud(m.V, n, seed, &how, what);
     s.how = to_string(how);
-  } else if (p == Protocol::disn) {
+  } else if (p == Protocol::kDisn) {
     s.points = sample_with_replacement(m.V, n, seed, what);
     s.how = "vertices_with_replacement";
   } else {
@@ -56,17 +57,17 @@ Samples draw(const Mesh& m, Protocol p, long n, uint64_t seed, const std::string
 }  // namespace
 
 Protocol parse_protocol(const std::string& name) {
-  if (name == "disn") return Protocol::disn;
-  if (name == "onet") return Protocol::onet;
-  if (name == "tmnet") return Protocol::tmnet;
+  if (name == "disn") return Protocol::kDisn;
+  if (name == "onet") return Protocol::kOnet;
+  if (name == "tmnet") return Protocol::kTmnet;
   throw InvalidInput("unknown protocol '" + name + "' (expected disn, onet or tmnet)");
 }
 
 std::string to_string(Protocol p) {
   switch (p) {
-    case Protocol::disn: return "disn";
-    case Protocol::onet: return "onet";
-    case Protocol::tmnet: return "tmnet";
+    case Protocol::kDisn: return "disn";
+    case Protocol::kOnet: return "onet";
+    case Protocol::kTmnet: return "tmnet";
   }
   return "?";
 }
@@ -79,7 +80,7 @@ const std::vector<double>& disn_threshold_percents() {
 std::vector<std::pair<std::string, std::string>> metric_keys(Protocol p) {
   std::vector<std::pair<std::string, std::string>> k;
   switch (p) {
-    case Protocol::disn:
+    case Protocol::kDisn:
       k.emplace_back("cd", "CD (x1000)");
       k.emplace_back("emd", "EMD (x0.01)");
       k.emplace_back("iou", "IoU (%)");
@@ -95,11 +96,11 @@ std::vector<std::pair<std::string, std::string>> metric_keys(Protocol p) {
         k.emplace_back(percent_key("r_", t), "Recall@" + pct.str() + "% (%)");
       }
       break;
-    case Protocol::onet:
+    case Protocol::kOnet:
       k = {{"accuracy", "Accuracy"}, {"completeness", "Completeness"}, {"cd_l1", "CD-L1"},
            {"cd_l2", "CD-L2"},       {"iou", "IoU"},                   {"normal_consistency", "Normal consistency"}};
       break;
-    case Protocol::tmnet: k = {{"cd", "CD (x1000)"}, {"emd", "EMD (x100)"}}; break;
+    case Protocol::kTmnet: k = {{"cd", "CD (x1000)"}, {"emd", "EMD (x100)"}}; break;
   }
   return k;
 }
@@ -128,12 +129,12 @@ EvalResult evaluate(const Mesh& pred, const Mesh& gt, const ProtocolSettings& se
   check_input(pred, "prediction");
   check_input(gt, "ground truth");
   const Protocol p = settings.protocol;
-  const long n = settings.samples > 0 ? settings.samples : (p == Protocol::onet ? 100000 : 2048);
+  const long n = settings.samples > 0 ? settings.samples : (p == Protocol::kOnet ? 100000 : 2048);
   EvalResult r;
   r.protocol = p;
   r.seed = settings.seed;
   r.samples = n;
-  r.emd_method = p == Protocol::onet ? "" : to_string(settings.emd);
+  r.emd_method = p == Protocol::kOnet ? "" : to_string(settings.emd);
   std::map<std::string, Metric> found;
   auto set = [&](const std::string& key, std::optional<double> v, std::string note = "") {
     found[key] = Metric{key, "", v, std::move(note)};
@@ -147,18 +148,18 @@ EvalResult evaluate(const Mesh& pred, const Mesh& gt, const ProtocolSettings& se
   const ChamferResult cd = pair.chamfer();
   const bool meshes = !is_point_cloud(pred) && !is_point_cloud(gt);
 
-  if (p == Protocol::disn || p == Protocol::tmnet) {
+  if (p == Protocol::kDisn || p == Protocol::kTmnet) {
     set("cd", cd.cd_squared() * 1000.0);
     if (settings.with_emd) {
       EmdSettings es;
       es.method = settings.emd;
       const EmdResult e = emd(sp.points, sg.points, es);
-      set("emd", p == Protocol::disn ? e.total * 0.01 : e.mean() * 100.0);
+      set("emd", p == Protocol::kDisn ? e.total * 0.01 : e.mean() * 100.0);
     } else {
       set("emd", std::nullopt, "EMD disabled");
     }
   }
-  if (p == Protocol::disn) {
+  if (p == Protocol::kDisn) {
     for (double t : disn_threshold_percents()) {
       const FScore f = pair.fscore(t / 100.0 * 2.5);
       set(percent_key("f_", t), 100.0 * f.fscore);
@@ -172,7 +173,7 @@ EvalResult evaluate(const Mesh& pred, const Mesh& gt, const ProtocolSettings& se
     else
       set("iou", 100.0 * voxel_iou(pred, gt));
   }
-  if (p == Protocol::onet) {
+  if (p == Protocol::kOnet) {
     set("accuracy", cd.accuracy);
     set("completeness", cd.completeness);
     set("cd_l1", cd.cd_l1());

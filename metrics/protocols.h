@@ -1,7 +1,7 @@
 // The three scoring protocols of sdfkit (DESIGN.md "Metric protocols"; every convention in docs/eval.md):
 //  disn : 2048 points drawn with replacement from each mesh's VERTICES; CD = (mean pred->gt squared NN distance
 //         + mean gt->pred) x 1000; EMD = sum of matched Euclidean distances x 0.01 (exact by default, Fan et al.'s
-//         approximate matcher with EmdMethod::approx); F-score, precision and recall (in %) at thresholds
+//         approximate matcher with EmdMethod::kApprox); F-score, precision and recall (in %) at thresholds
 //         {0.5, 1, 2, 5, 10, 20}% of 2.5 (1% = 0.025), strict <; IoU (in %) of solid voxelisations at DISN's
 //         indexing (v + 1.1) / 2.4 * 110.
 //  onet : 100k area-weighted surface samples; accuracy, completeness (mean distances), CD-L1 = their mean,
@@ -28,14 +28,14 @@
 
 namespace sdfkit::metrics {
 
-enum class Protocol { disn, onet, tmnet };
+enum class Protocol { kDisn, kOnet, kTmnet };
 Protocol parse_protocol(const std::string& name);  ///< InvalidInput on an unknown name
 std::string to_string(Protocol p);
 
 struct ProtocolSettings {
-  Protocol protocol = Protocol::disn;
+  Protocol protocol = Protocol::kDisn;
   uint64_t seed = 0;
-  EmdMethod emd = EmdMethod::exact;  ///< disn and tmnet
+  EmdMethod emd = EmdMethod::kExact;  ///< disn and tmnet
   long samples = 0;                  ///< points per shape; 0 = the protocol's own (2048, 100000, 2048)
   long iou_points = 100000;          ///< onet's uniform IoU points
   bool with_emd = true;              ///< skip EMD (reported null) when false
@@ -51,7 +51,7 @@ struct Metric {
 };
 
 struct EvalResult {
-  Protocol protocol = Protocol::disn;
+  Protocol protocol = Protocol::kDisn;
   uint64_t seed = 0;
   long samples = 0;
   std::string emd_method;

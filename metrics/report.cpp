@@ -1,5 +1,6 @@
 #include "metrics/report.h"
 
+#include "core/json.h"
 #include "metrics/chamfer.h"
 
 #include <cstdio>
@@ -25,7 +26,7 @@ std::string csv_field(const std::string& s) {
   return q + "\"";
 }
 
-bool is_disn_f(Protocol p, const std::string& key) { return p == Protocol::disn && key.rfind("f_", 0) == 0; }
+bool is_disn_f(Protocol p, const std::string& key) { return p == Protocol::kDisn && key.rfind("f_", 0) == 0; }
 
 CategorySummary aggregate(const std::string& name, const std::vector<const ShapeRecord*>& shapes, Protocol p) {
   CategorySummary c;

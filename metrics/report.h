@@ -33,7 +33,7 @@ struct CategorySummary {
 };
 
 struct Summary {
-  Protocol protocol = Protocol::disn;
+  Protocol protocol = Protocol::kDisn;
   std::vector<CategorySummary> categories;  ///< sorted by name
   CategorySummary mean;                     ///< "mean" column: mean of category values; counts are totals
 };

@@ -78,9 +78,9 @@ Points sample_without_replacement(const Points& points, long n, uint64_t seed, c
 
 std::string to_string(CloudSampling s) {
   switch (s) {
-    case CloudSampling::as_given: return "as_given";
-    case CloudSampling::subsampled: return "subsampled";
-    case CloudSampling::padded: return "padded";
+    case CloudSampling::kAsGiven: return "as_given";
+    case CloudSampling::kSubsampled: return "subsampled";
+    case CloudSampling::kPadded: return "padded";
   }
   return "?";
 }
@@ -88,15 +88,15 @@ std::string to_string(CloudSampling s) {
 Points sample_cloud(const Points& points, long n, uint64_t seed, CloudSampling* how, const std::string& what) {
   require(n > 0, what + ": number of samples must be positive");
   require_finite_points(points, what);
-  CloudSampling mode = CloudSampling::as_given;
+  CloudSampling mode = CloudSampling::kAsGiven;
   Points out;
   if (points.rows() == n) {
     out = points;
   } else if (points.rows() > n) {
-    mode = CloudSampling::subsampled;
+    mode = CloudSampling::kSubsampled;
     out = sample_without_replacement(points, n, seed, what);
   } else {
-    mode = CloudSampling::padded;
+    mode = CloudSampling::kPadded;
     out.resize(n, 3);
     out.topRows(points.rows()) = points;
     out.bottomRows(n - points.rows()) = sample_with_replacement(points, n - points.rows(), seed, what);

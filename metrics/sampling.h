@@ -31,9 +31,9 @@ Points sample_without_replacement(const Points& points, long n, uint64_t seed, c
 
 /// How a point cloud becomes the `n` points a protocol scores (metrics/protocols.h).
 enum class CloudSampling {
-  as_given,    ///< exactly n points: used as they are
-  subsampled,  ///< more than n: n of them drawn without replacement
-  padded,      ///< fewer than n: every point once, plus n - rows drawn with replacement (EMD needs equal sizes)
+  kAsGiven,     ///< exactly n points: used as they are
+  kSubsampled,  ///< more than n: n of them drawn without replacement
+  kPadded,      ///< fewer than n: every point once, plus n - rows drawn with replacement (EMD needs equal sizes)
 };
 std::string to_string(CloudSampling s);  ///< "as_given", "subsampled", "padded"
 

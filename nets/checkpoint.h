@@ -13,6 +13,7 @@
 #pragma once
 
 #include "core/files.h"
+#include "core/json.h"
 #include "nets/optim.h"
 
 #include <string>

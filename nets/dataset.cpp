@@ -1,6 +1,7 @@
 #include "nets/dataset.h"
 
 #include "core/error.h"
+#include "core/json.h"
 #include "core/random.h"
 
 #include <tbb/parallel_for.h>

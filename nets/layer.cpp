@@ -1,5 +1,6 @@
 #include "nets/layer.h"
 
+#include "core/json.h"
 #include "nets/denormals.h"
 
 #include <tbb/parallel_for.h>

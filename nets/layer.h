@@ -12,6 +12,7 @@
 #pragma once
 
 #include "core/files.h"
+#include "core/json.h"
 #include "core/random.h"
 #include "nets/tensor.h"
 

@@ -1,5 +1,6 @@
 #include "nets/layers.h"
 
+#include "core/json.h"
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -274,10 +275,10 @@ void Linear<T>::backward(const TensorT<T>& x, const TensorT<T>& y, const TensorT
 template <typename T>
 std::string Activation<T>::type() const {
   switch (kind_) {
-    case ActivationKind::ReLU: return "relu";
-    case ActivationKind::LeakyReLU: return "leaky_relu";
-    case ActivationKind::Sigmoid: return "sigmoid";
-    case ActivationKind::Tanh: return "tanh";
+    case ActivationKind::kReLU: return "relu";
+    case ActivationKind::kLeakyReLU: return "leaky_relu";
+    case ActivationKind::kSigmoid: return "sigmoid";
+    case ActivationKind::kTanh: return "tanh";
   }
   return "activation";
 }
@@ -285,7 +286,7 @@ std::string Activation<T>::type() const {
 template <typename T>
 Json Activation<T>::hyperparams() const {
   Json j = {{"type", type()}};
-  if (kind_ == ActivationKind::LeakyReLU) j["slope"] = slope_;
+  if (kind_ == ActivationKind::kLeakyReLU) j["slope"] = slope_;
   return j;
 }
 
@@ -297,17 +298,17 @@ void Activation<T>::forward(const TensorT<T>& x, TensorT<T>& y) const {
   T* b = y.ptr();
   const T slope = static_cast<T>(slope_);
   switch (kind_) {
-    case ActivationKind::ReLU:
+    case ActivationKind::kReLU:
       for (int64_t i = 0; i < n; ++i) b[i] = a[i] > T(0) ? a[i] : T(0);
       break;
-    case ActivationKind::LeakyReLU:
+    case ActivationKind::kLeakyReLU:
       for (int64_t i = 0; i < n; ++i) b[i] = a[i] > T(0) ? a[i] : slope * a[i];
       break;
-    case ActivationKind::Sigmoid:
+    case ActivationKind::kSigmoid:
       for (int64_t i = 0; i < n; ++i)
         b[i] = a[i] >= T(0) ? T(1) / (T(1) + std::exp(-a[i])) : std::exp(a[i]) / (T(1) + std::exp(a[i]));
       break;
-    case ActivationKind::Tanh:
+    case ActivationKind::kTanh:
       for (int64_t i = 0; i < n; ++i) b[i] = std::tanh(a[i]);
       break;
   }
@@ -323,16 +324,16 @@ void Activation<T>::backward(const TensorT<T>& x, const TensorT<T>& y, const Ten
   T* d = dx->ptr();
   const T slope = static_cast<T>(slope_);
   switch (kind_) {
-    case ActivationKind::ReLU:
+    case ActivationKind::kReLU:
       for (int64_t i = 0; i < n; ++i) d[i] = a[i] > T(0) ? g[i] : T(0);
       break;
-    case ActivationKind::LeakyReLU:
+    case ActivationKind::kLeakyReLU:
       for (int64_t i = 0; i < n; ++i) d[i] = a[i] > T(0) ? g[i] : slope * g[i];
       break;
-    case ActivationKind::Sigmoid:
+    case ActivationKind::kSigmoid:
       for (int64_t i = 0; i < n; ++i) d[i] = g[i] * o[i] * (T(1) - o[i]);
       break;
-    case ActivationKind::Tanh:
+    case ActivationKind::kTanh:
       for (int64_t i = 0; i < n; ++i) d[i] = g[i] * (T(1) - o[i] * o[i]);
       break;
   }
@@ -363,16 +364,16 @@ void Pool2d<T>::forward(const TensorT<T>& x, TensorT<T>& y) const {
     T* out = y.ptr() + pl * Ho * Wo;
     for (int64_t oy = 0; oy < Ho; ++oy)
       for (int64_t ox = 0; ox < Wo; ++ox) {
-        T acc = kind_ == PoolKind::Max ? -std::numeric_limits<T>::infinity() : T(0);
+        T acc = kind_ == PoolKind::kMax ? -std::numeric_limits<T>::infinity() : T(0);
         for (int ki = 0; ki < k_; ++ki)
           for (int kj = 0; kj < k_; ++kj) {
             const T v = in[(oy * s_ + ki) * W + ox * s_ + kj];
-            if (kind_ == PoolKind::Max)
+            if (kind_ == PoolKind::kMax)
               acc = v > acc ? v : acc;
             else
               acc += v;
           }
-        out[oy * Wo + ox] = kind_ == PoolKind::Max ? acc : acc * inv;
+        out[oy * Wo + ox] = kind_ == PoolKind::kMax ? acc : acc * inv;
       }
   });
 }
@@ -393,7 +394,7 @@ void Pool2d<T>::backward(const TensorT<T>& x, const TensorT<T>& y, const TensorT
     for (int64_t oy = 0; oy < Ho; ++oy)
       for (int64_t ox = 0; ox < Wo; ++ox) {
         const T go = g[oy * Wo + ox];
-        if (kind_ == PoolKind::Max) {
+        if (kind_ == PoolKind::kMax) {
           int64_t best = (oy * s_) * W + ox * s_;
           for (int ki = 0; ki < k_; ++ki)
             for (int kj = 0; kj < k_; ++kj) {
@@ -423,7 +424,7 @@ void GlobalPool<T>::forward(const TensorT<T>& x, TensorT<T>& y) const {
     for (int64_t c = 0; c < x.dim(1); ++c) {
       const int64_t pl = n * x.dim(1) + c;
       const T* in = x.ptr() + pl * HW;
-      if (kind_ == PoolKind::Max) {
+      if (kind_ == PoolKind::kMax) {
         T m = in[0];
         for (int64_t i = 1; i < HW; ++i) m = in[i] > m ? in[i] : m;
         y[pl] = m;
@@ -446,7 +447,7 @@ void GlobalPool<T>::backward(const TensorT<T>& x, const TensorT<T>& y, const Ten
   for (int64_t pl = 0; pl < planes; ++pl) {
     const T* in = x.ptr() + pl * HW;
     T* d = dx->ptr() + pl * HW;
-    if (kind_ == PoolKind::Max) {
+    if (kind_ == PoolKind::kMax) {
       std::fill(d, d + HW, T(0));
       int64_t best = 0;
       for (int64_t i = 1; i < HW; ++i)
@@ -631,12 +632,7 @@ void Sequential<T>::forward(const TensorT<T>& x, TensorT<T>& y) const {
     return;
   }
   if (training_) {
-    acts_.resize(layers_.size());
-    const TensorT<T>* in = &x;
-    for (size_t i = 0; i < layers_.size(); ++i) {
-      layers_[i]->forward(*in, acts_[i]);
-      in = &acts_[i];
-    }
+    forward_into(x, acts_);
     y = acts_.back();
     return;
   }
@@ -671,6 +667,55 @@ void Sequential<T>::backward(const TensorT<T>& x, const TensorT<T>& y, const Ten
     layers_[i]->backward(in, acts_[i], *g, out);
     g = out;
   }
+}
+
+template <typename T>
+void Sequential<T>::forward_into(const TensorT<T>& x, std::vector<TensorT<T>>& acts) const {
+  acts.resize(layers_.size());
+  const TensorT<T>* in = &x;
+  for (size_t i = 0; i < layers_.size(); ++i) {
+    layers_[i]->forward(*in, acts[i]);
+    in = &acts[i];
+  }
+}
+
+template <typename T>
+void Sequential<T>::backward_from(const TensorT<T>& x, const std::vector<TensorT<T>>& acts, const TensorT<T>& dy,
+                                  TensorT<T>* dx) const {
+  require(acts.size() == layers_.size(), "sequential backward: the activations are not this chain's");
+  TensorT<T> g = dy, prev;
+  for (size_t i = layers_.size(); i-- > 0;) {
+    const TensorT<T>& in = i == 0 ? x : acts[i - 1];
+    const bool need_dx = i > 0 || dx != nullptr;
+    layers_[i]->backward(in, acts[i], g, need_dx ? &prev : nullptr);
+    if (need_dx) std::swap(g, prev);
+  }
+  if (dx) *dx = std::move(g);
+}
+
+template <typename T>
+void Sequential<T>::run(const TensorT<T>& x, TensorT<T>& y) const {
+  TensorT<T> a, b;
+  const TensorT<T>* in = &x;
+  for (size_t i = 0; i < layers_.size(); ++i) {
+    TensorT<T>& out = (i + 1 == layers_.size()) ? y : (i % 2 == 0 ? a : b);
+    layers_[i]->forward(*in, out);
+    in = &out;
+  }
+  if (layers_.empty()) y = x;
+}
+
+template <typename T>
+double Sequential<T>::flops(Shape in, double* first, Shape* out) const {
+  double total = 0;
+  for (size_t i = 0; i < layers_.size(); ++i) {
+    const double f = layers_[i]->forward_flops(in);
+    if (i == 0 && first) *first = f;
+    total += f;
+    in = layers_[i]->output_shape(in);
+  }
+  if (out) *out = in;
+  return total;
 }
 
 template <typename T>

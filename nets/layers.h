@@ -73,7 +73,7 @@ class Linear : public Layer<T> {
 
 // ---------------------------------------------------------------------------------------------------------------
 /// Element-wise activation. ReLU'(0) = 0; LeakyReLU: x > 0 ? x : slope x; Sigmoid; Tanh.
-enum class ActivationKind { ReLU, LeakyReLU, Sigmoid, Tanh };
+enum class ActivationKind { kReLU, kLeakyReLU, kSigmoid, kTanh };
 
 template <typename T>
 class Activation : public Layer<T> {
@@ -92,24 +92,24 @@ class Activation : public Layer<T> {
 
 template <typename T>
 std::unique_ptr<Layer<T>> relu() {
-  return std::make_unique<Activation<T>>(ActivationKind::ReLU);
+  return std::make_unique<Activation<T>>(ActivationKind::kReLU);
 }
 template <typename T>
 std::unique_ptr<Layer<T>> leaky_relu(double slope = 0.2) {
-  return std::make_unique<Activation<T>>(ActivationKind::LeakyReLU, slope);
+  return std::make_unique<Activation<T>>(ActivationKind::kLeakyReLU, slope);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
 /// Max or average pooling over k x k windows with a stride, no padding, floor output size:
 /// N x C x H x W -> N x C x ((H - k) / s + 1) x ((W - k) / s + 1). Max pooling routes the gradient to the first
 /// maximum of each window (row-major order) on ties.
-enum class PoolKind { Max, Average };
+enum class PoolKind { kMax, kAverage };
 
 template <typename T>
 class Pool2d : public Layer<T> {
  public:
   Pool2d(PoolKind kind, int kernel, int stride) : kind_(kind), k_(kernel), s_(stride) {}
-  [[nodiscard]] std::string type() const override { return kind_ == PoolKind::Max ? "maxpool2d" : "avgpool2d"; }
+  [[nodiscard]] std::string type() const override { return kind_ == PoolKind::kMax ? "maxpool2d" : "avgpool2d"; }
   [[nodiscard]] Json hyperparams() const override;
   [[nodiscard]] Shape output_shape(const Shape& in) const override;
   void forward(const TensorT<T>& x, TensorT<T>& y) const override;
@@ -124,8 +124,8 @@ class Pool2d : public Layer<T> {
 template <typename T>
 class GlobalPool : public Layer<T> {
  public:
-  explicit GlobalPool(PoolKind kind = PoolKind::Average) : kind_(kind) {}
-  [[nodiscard]] std::string type() const override { return kind_ == PoolKind::Max ? "globalmaxpool" : "globalavgpool"; }
+  explicit GlobalPool(PoolKind kind = PoolKind::kAverage) : kind_(kind) {}
+  [[nodiscard]] std::string type() const override { return kind_ == PoolKind::kMax ? "globalmaxpool" : "globalavgpool"; }
   [[nodiscard]] Json hyperparams() const override { return {{"type", type()}}; }
   [[nodiscard]] Shape output_shape(const Shape& in) const override;
   void forward(const TensorT<T>& x, TensorT<T>& y) const override;
@@ -169,9 +169,12 @@ class Flatten : public Layer<T> {
 
 // ---------------------------------------------------------------------------------------------------------------
 /// A chain of layers, itself a layer (its parameters are the concatenation of its children's slices).
-/// With training(true) forward() keeps every intermediate activation for backward(); with training(false)
-/// (the default) it ping-pongs between two buffers and backward() is an error.
-/// Not re-entrant: one forward/backward at a time per object (layers inside parallelise over the batch).
+/// Two ways to run it:
+///   - as a Layer: with training(true) forward() keeps every intermediate activation inside the object for
+///     backward(); with training(false) (the default) it ping-pongs between two buffers and backward() is an error.
+///     Not re-entrant: one forward/backward at a time per object (layers inside parallelise over the batch).
+///   - with caller-owned activations (forward_into / backward_from / run): the object holds no state, so several
+///     threads can run one chain at once, each with its own activations (the SDF network's replicas).
 template <typename T>
 class Sequential : public Layer<T> {
  public:
@@ -203,6 +206,28 @@ class Sequential : public Layer<T> {
   /// Activation after layer i of the last training forward (i = size()-1 is the output).
   [[nodiscard]] const TensorT<T>& activation(size_t i) const { return acts_.at(i); }
 
+  /// Forward keeping every activation in `acts` (acts[i] = output of layer i; resized to size()).
+  void forward_into(const TensorT<T>& x, std::vector<TensorT<T>>& acts) const;
+  /// The chain's output after forward_into: the last activation, or x for an empty chain.
+  static const TensorT<T>& output(const TensorT<T>& x, const std::vector<TensorT<T>>& acts) {
+    return acts.empty() ? x : acts.back();
+  }
+  /// Backward through the activations forward_into(x, acts) left (parameter gradients accumulate; dx written when
+  /// not null; the first layer skips its input gradient otherwise).
+  void backward_from(const TensorT<T>& x, const std::vector<TensorT<T>>& acts, const TensorT<T>& dy,
+                     TensorT<T>* dx) const;
+  /// Inference with local buffers: only the output is kept.
+  void run(const TensorT<T>& x, TensorT<T>& y) const;
+  /// Forward FLOPs on an input of shape `in`; the first layer's share in *first and the output shape in *out when
+  /// not null.
+  double flops(Shape in, double* first = nullptr, Shape* out = nullptr) const;
+  /// Add each child (not the chain as one layer) to `store`, so that the parameter layout and the architecture
+  /// list the children one by one.
+  template <typename Store>
+  void add_children_to(Store& store) {
+    for (auto& l : layers_) store.add(*l);
+  }
+
  private:
   std::vector<std::unique_ptr<Layer<T>>> layers_;
   bool training_ = false;
@@ -213,7 +238,7 @@ class Sequential : public Layer<T> {
 /// A shared point MLP: Linear(c0 -> c1), act, Linear(c1 -> c2), act, ...; the activation after the last layer
 /// only when last_activation is true. DISN: {3, 64, 256, 512} with ReLU.
 template <typename T>
-std::unique_ptr<Sequential<T>> make_point_mlp(const std::vector<int>& channels, ActivationKind act = ActivationKind::ReLU,
+std::unique_ptr<Sequential<T>> make_point_mlp(const std::vector<int>& channels, ActivationKind act = ActivationKind::kReLU,
                                               bool last_activation = true);
 
 // ---------------------------------------------------------------------------------------------------------------

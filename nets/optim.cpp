@@ -1,6 +1,7 @@
 #include "nets/optim.h"
 
 #include "core/error.h"
+#include "core/json.h"
 #include "nets/denormals.h"
 
 #include <tbb/parallel_for.h>
@@ -13,11 +14,11 @@ namespace sdfkit {
 double LrSchedule::at(long step) const {
   double lr = base;
   switch (kind) {
-    case Kind::Constant: break;
-    case Kind::Step:
+    case Kind::kConstant: break;
+    case Kind::kStep:
       lr = base * std::pow(gamma, static_cast<double>(step / std::max(1L, step_size)));
       break;
-    case Kind::Cosine: {
+    case Kind::kCosine: {
       const double f = static_cast<double>(std::min(step, total_steps)) / static_cast<double>(std::max(1L, total_steps));
       lr = min_lr + (base - min_lr) * 0.5 * (1.0 + std::cos(M_PI * f));
       break;
@@ -28,9 +29,9 @@ double LrSchedule::at(long step) const {
 }
 
 LrSchedule::Kind LrSchedule::parse_kind(const std::string& name) {
-  if (name == "constant") return Kind::Constant;
-  if (name == "step") return Kind::Step;
-  if (name == "cosine") return Kind::Cosine;
+  if (name == "constant") return Kind::kConstant;
+  if (name == "step") return Kind::kStep;
+  if (name == "cosine") return Kind::kCosine;
   throw InvalidInput("unknown learning-rate schedule '" + name + "' (constant, step, cosine)");
 }
 
@@ -54,7 +55,7 @@ LrSchedule LrSchedule::from_json(const Json& j) {
 }
 
 Json OptimizerSettings::to_json() const {
-  return {{"kind", kind == Kind::Adam ? "adam" : "sgd"},
+  return {{"kind", kind == Kind::kAdam ? "adam" : "sgd"},
           {"beta1", beta1},
           {"beta2", beta2},
           {"eps", eps},
@@ -68,7 +69,7 @@ OptimizerSettings OptimizerSettings::from_json(const Json& j) {
   OptimizerSettings s;
   const std::string k = j.at("kind").get<std::string>();
   if (k != "adam" && k != "sgd") throw IoError("optimizer kind '" + k + "' unknown");
-  s.kind = k == "adam" ? Kind::Adam : Kind::Sgd;
+  s.kind = k == "adam" ? Kind::kAdam : Kind::kSgd;
   s.beta1 = j.at("beta1").get<double>();
   s.beta2 = j.at("beta2").get<double>();
   s.eps = j.at("eps").get<double>();
@@ -84,7 +85,7 @@ Optimizer::Optimizer(const OptimizerSettings& settings, size_t n_params) : s_(se
           "optimizer: betas must lie in [0, 1) and eps must be positive");
   require(s_.weight_decay >= 0 && s_.momentum >= 0, "optimizer: weight decay and momentum must be >= 0");
   m_.assign(n_, 0.0f);
-  if (s_.kind == OptimizerSettings::Kind::Adam) v_.assign(n_, 0.0f);
+  if (s_.kind == OptimizerSettings::Kind::kAdam) v_.assign(n_, 0.0f);
 }
 
 template <typename T>
@@ -92,7 +93,7 @@ void Optimizer::step_impl(T* w, const T* g, double lr) {
   ++t_;
   const double wd = s_.weight_decay;
   const bool coupled = wd > 0 && !s_.decoupled_weight_decay;
-  const bool adam = s_.kind == OptimizerSettings::Kind::Adam;
+  const bool adam = s_.kind == OptimizerSettings::Kind::kAdam;
   const double b1 = s_.beta1, b2 = s_.beta2;
   const double c1 = 1.0 - std::pow(b1, static_cast<double>(t_)), c2 = 1.0 - std::pow(b2, static_cast<double>(t_));
   const double step = lr / c1, sc2 = 1.0 / std::sqrt(c2);
@@ -153,7 +154,7 @@ void Optimizer::deserialize(const StateBlob& blob) {
     const auto* m = blob.find("opt_m");
     const auto* v = blob.find("opt_v");
     if (!m || m->size() != n_) throw IoError("optimizer state: first-moment buffer missing or of the wrong size");
-    if (s_.kind == OptimizerSettings::Kind::Adam && (!v || v->size() != n_))
+    if (s_.kind == OptimizerSettings::Kind::kAdam && (!v || v->size() != n_))
       throw IoError("optimizer state: second-moment buffer missing or of the wrong size");
     t_ = blob.meta.at("t").get<long>();
     m_ = *m;

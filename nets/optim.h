@@ -3,6 +3,7 @@
 #pragma once
 
 #include "core/files.h"
+#include "core/json.h"
 
 #include <string>
 #include <utility>
@@ -16,8 +17,8 @@ namespace sdfkit {
 ///  cosine:   min + (base - min) * (1 + cos(pi * min(step, total) / total)) / 2
 /// with an optional linear warm-up from 0 over the first warmup_steps steps.
 struct LrSchedule {
-  enum class Kind { Constant, Step, Cosine };
-  Kind kind = Kind::Constant;
+  enum class Kind { kConstant, kStep, kCosine };
+  Kind kind = Kind::kConstant;
   double base = 1e-4;
   double gamma = 0.9;
   long step_size = 10000;
@@ -33,8 +34,8 @@ struct LrSchedule {
 };
 
 struct OptimizerSettings {
-  enum class Kind { Adam, Sgd };
-  Kind kind = Kind::Adam;
+  enum class Kind { kAdam, kSgd };
+  Kind kind = Kind::kAdam;
   double beta1 = 0.5;  ///< Adam first-moment decay (DISN uses 0.5)
   double beta2 = 0.999;
   double eps = 1e-8;

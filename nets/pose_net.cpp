@@ -1,6 +1,7 @@
 #include "nets/pose_net.h"
 
 #include "camera/rotation6d.h"
+#include "core/json.h"
 
 #include <algorithm>
 #include <cmath>

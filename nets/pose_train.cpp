@@ -1,5 +1,6 @@
 #include "nets/pose_train.h"
 
+#include "core/json.h"
 #include "nets/checkpoint.h"
 #include "nets/comm.h"
 #include "nets/denormals.h"
@@ -229,7 +230,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   os.weight_decay = s.weight_decay;
   Optimizer opt(os, net.n_params());
   LrSchedule lr;
-  lr.kind = LrSchedule::Kind::Cosine;
+  lr.kind = LrSchedule::Kind::kCosine;
   lr.base = s.lr;
   lr.min_lr = s.lr_min;
   lr.total_steps = s.steps;

@@ -3,6 +3,7 @@
 // curve + SVG plot, checkpoints that a resumed run continues bit for bit, and the model file.
 #pragma once
 
+#include "core/json.h"
 #include "camera/pose_metrics.h"
 #include "nets/dataset.h"
 #include "nets/optim.h"

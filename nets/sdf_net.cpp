@@ -1,6 +1,7 @@
 #include "nets/sdf_net.h"
 
 #include "core/error.h"
+#include "core/json.h"
 #include "nets/bilinear_sample.h"
 #include "nets/denormals.h"
 
@@ -14,19 +15,19 @@ namespace sdfkit {
 
 std::string to_string(SdfVariant v) {
   switch (v) {
-    case SdfVariant::TwoStream: return "two-stream";
-    case SdfVariant::OneStream: return "one-stream";
-    case SdfVariant::GlobalOnly: return "global-only";
-    case SdfVariant::Binary: return "binary";
+    case SdfVariant::kTwoStream: return "two-stream";
+    case SdfVariant::kOneStream: return "one-stream";
+    case SdfVariant::kGlobalOnly: return "global-only";
+    case SdfVariant::kBinary: return "binary";
   }
   return "two-stream";
 }
 
 SdfVariant sdf_variant_from_string(const std::string& s) {
-  if (s == "two-stream") return SdfVariant::TwoStream;
-  if (s == "one-stream") return SdfVariant::OneStream;
-  if (s == "global-only") return SdfVariant::GlobalOnly;
-  if (s == "binary") return SdfVariant::Binary;
+  if (s == "two-stream") return SdfVariant::kTwoStream;
+  if (s == "one-stream") return SdfVariant::kOneStream;
+  if (s == "global-only") return SdfVariant::kGlobalOnly;
+  if (s == "binary") return SdfVariant::kBinary;
   throw InvalidInput("unknown SDF network variant '" + s + "' (two-stream, one-stream, global-only, binary)");
 }
 
@@ -80,67 +81,6 @@ void project_for_sampling(const Camera& camera, const PointsF& points, int image
 
 namespace {
 
-/// A chain of layers whose activations live in a caller-owned vector (so the chain itself is stateless and can
-/// be run by several threads at once).
-template <typename T>
-struct Chain {
-  std::vector<std::unique_ptr<Layer<T>>> layers;
-
-  template <typename L, typename... Args>
-  void emplace(Args&&... args) {
-    layers.push_back(std::make_unique<L>(std::forward<Args>(args)...));
-  }
-  void register_params(ParamStore<T>& store) {
-    for (auto& l : layers) store.add(*l);
-  }
-  /// acts[i] = output of layer i.
-  void forward(const TensorT<T>& x, std::vector<TensorT<T>>& acts) const {
-    acts.resize(layers.size());
-    const TensorT<T>* in = &x;
-    for (size_t i = 0; i < layers.size(); ++i) {
-      layers[i]->forward(*in, acts[i]);
-      in = &acts[i];
-    }
-  }
-  /// Inference: only the output is kept (two ping-pong buffers).
-  void run(const TensorT<T>& x, TensorT<T>& y) const {
-    TensorT<T> a, b;
-    const TensorT<T>* in = &x;
-    for (size_t i = 0; i < layers.size(); ++i) {
-      TensorT<T>& out = (i + 1 == layers.size()) ? y : (i % 2 == 0 ? a : b);
-      layers[i]->forward(*in, out);
-      in = &out;
-    }
-    if (layers.empty()) y = x;
-  }
-  /// Forward FLOPs on an input of shape `in` (the first layer's share in *first when not null); *out = the
-  /// output shape.
-  double flops(Shape in, double* first = nullptr, Shape* out = nullptr) const {
-    double total = 0;
-    for (size_t i = 0; i < layers.size(); ++i) {
-      const double f = layers[i]->forward_flops(in);
-      if (i == 0 && first) *first = f;
-      total += f;
-      in = layers[i]->output_shape(in);
-    }
-    if (out) *out = in;
-    return total;
-  }
-  static const TensorT<T>& output(const TensorT<T>& x, const std::vector<TensorT<T>>& acts) {
-    return acts.empty() ? x : acts.back();
-  }
-  void backward(const TensorT<T>& x, const std::vector<TensorT<T>>& acts, const TensorT<T>& dy, TensorT<T>* dx) const {
-    TensorT<T> g = dy, prev;
-    for (size_t i = layers.size(); i-- > 0;) {
-      const TensorT<T>& in = i == 0 ? x : acts[i - 1];
-      const bool need_dx = i > 0 || dx != nullptr;
-      layers[i]->backward(in, acts[i], g, need_dx ? &prev : nullptr);
-      if (need_dx) std::swap(g, prev);
-    }
-    if (dx) *dx = std::move(g);
-  }
-};
-
 template <typename T>
 void add_into(TensorT<T>& acc, const TensorT<T>& x) {
   if (acc.shape != x.shape) {
@@ -165,18 +105,18 @@ struct SdfNetT<T>::Impl {
     bool uses_global = true;
     int local_maps = 0;  // features of maps [0, local_maps)
     int local_channels = 0;
-    Chain<T> point_mlp;
+    Sequential<T> point_mlp;
     std::unique_ptr<Linear<T>> first_p;  // P -> H1 (bias only when the stream has no global term)
     std::unique_ptr<Linear<T>> first_g;  // G -> H1 with bias: the per-shape bias
     // The first layer's local part W_L L(p) = sum_k W_k sample(map_k, p) = sum_k sample(W_k map_k, p): the 1x1
     // convolutions W_k run once per image and each point gathers H1 values per map (exact: sampling is linear).
     std::vector<std::unique_ptr<Conv2d<T>>> local_proj;
-    Activation<T> act{ActivationKind::ReLU};
-    Chain<T> rest;  // H1 -> ... -> 1
+    Activation<T> act{ActivationKind::kReLU};
+    Sequential<T> rest;  // H1 -> ... -> 1
   };
-  std::vector<Chain<T>> stages;
+  std::vector<Sequential<T>> stages;
   std::vector<int> map_channels, map_sizes;
-  Chain<T> global;  // flatten, linear, relu
+  Sequential<T> global;  // flatten, linear, relu
   std::vector<Stream> streams;
   int max_local_maps = 0;
 };
@@ -223,14 +163,14 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
   for (size_t k = 0; k < c.encoder_channels.size(); ++k) {
     const int out_c = c.encoder_channels[k];
     require(out_c > 0, "SDF network: encoder channels must be positive");
-    Chain<T> st;
+    Sequential<T> st;
     const int stride = k == 0 ? c.first_stride : 2;
     st.template emplace<Conv2d<T>>(Conv2dSettings{in_c, out_c, 3, stride, 1, true});
-    st.template emplace<Activation<T>>(ActivationKind::ReLU);
+    st.template emplace<Activation<T>>(ActivationKind::kReLU);
     if (k > 0)
       for (int e = 0; e < c.extra_convs; ++e) {
         st.template emplace<Conv2d<T>>(Conv2dSettings{out_c, out_c, 3, 1, 1, true});
-        st.template emplace<Activation<T>>(ActivationKind::ReLU);
+        st.template emplace<Activation<T>>(ActivationKind::kReLU);
       }
     size = (size + 2 - 3) / stride + 1;
     require(size >= 2, "SDF network: too many encoder stages for the image size");
@@ -242,7 +182,7 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
   const int flat = in_c * size * size;
   m.global.template emplace<Flatten<T>>();
   m.global.template emplace<Linear<T>>(flat, c.global_features);
-  m.global.template emplace<Activation<T>>(ActivationKind::ReLU);
+  m.global.template emplace<Activation<T>>(ActivationKind::kReLU);
 
   // Streams.
   const int all_maps = static_cast<int>(c.encoder_channels.size());
@@ -254,7 +194,7 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
     int prev = 3;
     for (int w : c.point_mlp) {
       s.point_mlp.template emplace<Linear<T>>(prev, w);
-      s.point_mlp.template emplace<Activation<T>>(ActivationKind::ReLU);
+      s.point_mlp.template emplace<Activation<T>>(ActivationKind::kReLU);
       prev = w;
     }
     const int h1 = c.decoder[0];
@@ -265,7 +205,7 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
     prev = h1;
     for (size_t i = 1; i < c.decoder.size(); ++i) {
       s.rest.template emplace<Linear<T>>(prev, c.decoder[i]);
-      s.rest.template emplace<Activation<T>>(ActivationKind::ReLU);
+      s.rest.template emplace<Activation<T>>(ActivationKind::kReLU);
       prev = c.decoder[i];
     }
     s.rest.template emplace<Linear<T>>(prev, 1);
@@ -273,27 +213,27 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
     m.streams.push_back(std::move(s));
   };
   switch (c.variant) {
-    case SdfVariant::TwoStream:
-    case SdfVariant::Binary:
+    case SdfVariant::kTwoStream:
+    case SdfVariant::kBinary:
       make_stream(true, 0);
       make_stream(false, all_maps);
       break;
-    case SdfVariant::OneStream:
+    case SdfVariant::kOneStream:
       require(c.one_stream_maps >= 1 && c.one_stream_maps <= all_maps,
               "SDF network: one_stream_maps must be in [1, number of encoder stages]");
       make_stream(true, c.one_stream_maps);
       break;
-    case SdfVariant::GlobalOnly: make_stream(true, 0); break;
+    case SdfVariant::kGlobalOnly: make_stream(true, 0); break;
   }
   // Parameters: encoder, global head, streams (this order is the checkpoint layout).
-  for (auto& st : m.stages) st.register_params(store_);
-  m.global.register_params(store_);
+  for (auto& st : m.stages) st.add_children_to(store_);
+  m.global.add_children_to(store_);
   for (auto& s : m.streams) {
-    s.point_mlp.register_params(store_);
+    s.point_mlp.add_children_to(store_);
     store_.add(*s.first_p);
     if (s.first_g) store_.add(*s.first_g);
     for (auto& p : s.local_proj) store_.add(*p);
-    s.rest.register_params(store_);
+    s.rest.add_children_to(store_);
   }
   store_.allocate(false);
 }
@@ -376,11 +316,11 @@ void SdfNetT<T>::forward(const TensorT<T>& images, const std::vector<Camera>& ca
   ws.maps.resize(m.stages.size());
   const TensorT<T>* in = &ws.input;
   for (size_t k = 0; k < m.stages.size(); ++k) {
-    m.stages[k].forward(*in, ws.stage_acts[k]);
+    m.stages[k].forward_into(*in, ws.stage_acts[k]);
     in = &ws.stage_acts[k].back();
     ws.maps[k] = *in;
   }
-  m.global.forward(*in, ws.global_acts);
+  m.global.forward_into(*in, ws.global_acts);
   const TensorT<T>& G = ws.global_acts.back();
   // Projections and local features.
   ws.points = points;
@@ -399,8 +339,8 @@ void SdfNetT<T>::forward(const TensorT<T>& images, const std::vector<Camera>& ca
   for (size_t si = 0; si < m.streams.size(); ++si) {
     const auto& s = m.streams[si];
     auto& a = ws.streams[si];
-    s.point_mlp.forward(points, a.pmlp);
-    const TensorT<T>& pf = Chain<T>::output(points, a.pmlp);
+    s.point_mlp.forward_into(points, a.pmlp);
+    const TensorT<T>& pf = Sequential<T>::output(points, a.pmlp);
     s.first_p->forward(pf, a.z);
     if (s.uses_global) {
       s.first_g->forward(G, a.gbias);
@@ -427,8 +367,8 @@ void SdfNetT<T>::forward(const TensorT<T>& images, const std::vector<Camera>& ca
       a.feat[k] = TensorT<T>();
     }
     s.act.forward(a.z, a.h);
-    s.rest.forward(a.h, a.rest);
-    const TensorT<T>& out = Chain<T>::output(a.h, a.rest);
+    s.rest.forward_into(a.h, a.rest);
+    const TensorT<T>& out = Sequential<T>::output(a.h, a.rest);
     for (int64_t i = 0; i < B * N; ++i) pred[i] += out[i];
   }
 }
@@ -450,7 +390,7 @@ void SdfNetT<T>::backward(Workspace& wsp, const TensorT<T>& dpred) const {
     const auto& s = m.streams[si];
     auto& a = ws.streams[si];
     TensorT<T> dh, dz, dpf;
-    s.rest.backward(a.h, a.rest, dout, &dh);
+    s.rest.backward_from(a.h, a.rest, dout, &dh);
     s.act.backward(a.z, a.h, dh, &dz);
     if (s.uses_global) {
       TensorT<T> dgb, dGs;
@@ -476,13 +416,13 @@ void SdfNetT<T>::backward(Workspace& wsp, const TensorT<T>& dpred) const {
       s.local_proj[k]->backward(ws.maps[k], a.proj[k], dproj, &dmap);
       add_into(dmaps[k], dmap);
     }
-    const TensorT<T>& pf = Chain<T>::output(ws.points, a.pmlp);
+    const TensorT<T>& pf = Sequential<T>::output(ws.points, a.pmlp);
     s.first_p->backward(pf, a.z, dz, &dpf);
-    s.point_mlp.backward(ws.points, a.pmlp, dpf, nullptr);
+    s.point_mlp.backward_from(ws.points, a.pmlp, dpf, nullptr);
   }
   {
     TensorT<T> dlast;
-    m.global.backward(ws.maps[K - 1], ws.global_acts, dG, &dlast);
+    m.global.backward_from(ws.maps[K - 1], ws.global_acts, dG, &dlast);
     add_into(dmaps[K - 1], dlast);
   }
   // Encoder, last stage first.
@@ -490,7 +430,7 @@ void SdfNetT<T>::backward(Workspace& wsp, const TensorT<T>& dpred) const {
     if (dmaps[k].empty()) continue;
     const TensorT<T>& in = k == 0 ? ws.input : ws.maps[k - 1];
     TensorT<T> dx;
-    m.stages[k].backward(in, ws.stage_acts[k], dmaps[k], k > 0 ? &dx : nullptr);
+    m.stages[k].backward_from(in, ws.stage_acts[k], dmaps[k], k > 0 ? &dx : nullptr);
     if (k > 0) add_into(dmaps[k - 1], dx);
   }
 }
@@ -564,10 +504,11 @@ void linear_rows(const Linear<T>& layer, const RowMat<T>& in, RowMat<T>& out) {
 /// Runs a chain of Linear and ReLU layers (the only kinds the streams use) on a block; returns the output, which
 /// lives in `a` or `b`.
 template <typename T>
-const RowMat<T>& run_rows(const Chain<T>& chain, const RowMat<T>& x, RowMat<T>& a, RowMat<T>& b) {
+const RowMat<T>& run_rows(const Sequential<T>& chain, const RowMat<T>& x, RowMat<T>& a, RowMat<T>& b) {
   const RowMat<T>* in = &x;
-  for (const auto& layer : chain.layers) {
-    if (const auto* lin = dynamic_cast<const Linear<T>*>(layer.get())) {
+  for (size_t i = 0; i < chain.size(); ++i) {
+    const Layer<T>* layer = &chain[i];
+    if (const auto* lin = dynamic_cast<const Linear<T>*>(layer)) {
       RowMat<T>& out = in == &a ? b : a;
       linear_rows(*lin, *in, out);
       in = &out;
@@ -630,7 +571,7 @@ template <typename T>
 void SdfNetT<T>::field(const ShapeCode& code, const Points& points, Eigen::VectorXd& values, int chunk) const {
   Eigen::Matrix<T, Eigen::Dynamic, 1> pred;
   predict(code, points.template cast<float>(), pred, chunk);
-  const double sign = config_.variant == SdfVariant::Binary ? -1.0 : 1.0;
+  const double sign = config_.variant == SdfVariant::kBinary ? -1.0 : 1.0;
   values = pred.template cast<double>() * (sign / config_.sdf_scale);
 }
 

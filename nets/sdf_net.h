@@ -37,13 +37,13 @@
 
 namespace sdfkit {
 
-enum class SdfVariant { TwoStream, OneStream, GlobalOnly, Binary };
+enum class SdfVariant { kTwoStream, kOneStream, kGlobalOnly, kBinary };
 std::string to_string(SdfVariant v);
 /// "two-stream", "one-stream", "global-only", "binary" (InvalidInput otherwise).
 SdfVariant sdf_variant_from_string(const std::string& s);
 
 struct SdfNetConfig {
-  SdfVariant variant = SdfVariant::TwoStream;
+  SdfVariant variant = SdfVariant::kTwoStream;
   int image_size = 137;                              ///< input is 3 x image_size x image_size
   std::vector<int> encoder_channels{16, 32, 64, 96, 128};  ///< one stride-2 3x3 conv stage each (+ReLU)
   int extra_convs = 1;          ///< stride-1 3x3 convs added to every stage after the first
@@ -60,9 +60,9 @@ struct SdfNetConfig {
   [[nodiscard]] Json to_json() const;
   static SdfNetConfig from_json(const Json& j);  ///< IoError on missing/invalid fields
   [[nodiscard]] bool uses_global() const { return true; }
-  [[nodiscard]] bool uses_local() const { return variant != SdfVariant::GlobalOnly; }
+  [[nodiscard]] bool uses_local() const { return variant != SdfVariant::kGlobalOnly; }
   [[nodiscard]] int num_streams() const {
-    return variant == SdfVariant::TwoStream || variant == SdfVariant::Binary ? 2 : 1;
+    return variant == SdfVariant::kTwoStream || variant == SdfVariant::kBinary ? 2 : 1;
   }
 };
 

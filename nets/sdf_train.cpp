@@ -1,6 +1,7 @@
 #include "nets/sdf_train.h"
 
 #include "core/error.h"
+#include "core/json.h"
 #include "core/random.h"
 #include "nets/checkpoint.h"
 #include "nets/comm.h"
@@ -30,7 +31,7 @@ constexpr int kLogEvery = 25;  // CSV rows: mean training loss over this many st
 
 /// Loss of the variant (value; gradient into grad when not null).
 double variant_loss(const SdfNetConfig& c, const Tensor& pred, const Tensor& sdf, Tensor* grad) {
-  if (c.variant == SdfVariant::Binary) {
+  if (c.variant == SdfVariant::kBinary) {
     Tensor target(sdf.shape);
     for (int64_t i = 0; i < sdf.size(); ++i) target[i] = sdf[i] - c.sdf_offset < 0.f ? 1.f : 0.f;
     return bce_with_logits_loss<float>(pred, target, grad);
@@ -42,7 +43,7 @@ double variant_loss(const SdfNetConfig& c, const Tensor& pred, const Tensor& sdf
 }
 
 bool predicted_inside(const SdfNetConfig& c, float pred) {
-  return c.variant == SdfVariant::Binary ? pred > 0.f : pred < 0.f;
+  return c.variant == SdfVariant::kBinary ? pred > 0.f : pred < 0.f;
 }
 
 std::vector<std::vector<double>> read_csv_numbers(const std::string& path, std::vector<std::string>* header) {
@@ -218,7 +219,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   os.weight_decay = st.weight_decay;
   Optimizer opt(os, net.n_params());
   LrSchedule sched;
-  sched.kind = st.lr_min < st.lr ? LrSchedule::Kind::Cosine : LrSchedule::Kind::Constant;
+  sched.kind = st.lr_min < st.lr ? LrSchedule::Kind::kCosine : LrSchedule::Kind::kConstant;
   sched.base = st.lr;
   sched.min_lr = st.lr_min;
   sched.total_steps = st.lr_steps > 0 ? st.lr_steps : st.steps;

@@ -3,6 +3,7 @@
 // a CSV loss curve + SVG plot, atomic checkpoints that a resumed run continues bit for bit, and the model file.
 #pragma once
 
+#include "core/json.h"
 #include "nets/dataset.h"
 #include "nets/sdf_net.h"
 #include "nets/train_event.h"

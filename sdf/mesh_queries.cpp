@@ -16,8 +16,8 @@ MeshQueries::MeshQueries(const Mesh& mesh, SignMethod sign, double spacing, doub
   distance_ = std::make_unique<MeshDistance>(mesh_);
   boundary_free_ = edges_balanced(mesh_);
   sign_ = sign;
-  if (sign == SignMethod::Auto || sign == SignMethod::PseudoNormal) {
-    sign_ = SignMethod::WindingNumber;
+  if (sign == SignMethod::kAuto || sign == SignMethod::kPseudoNormal) {
+    sign_ = SignMethod::kWindingNumber;
     if (pseudo_normal_sign_applies(mesh_)) {
       normals_.emplace(mesh_);
       // Explicit PseudoNormal: no agreement test (as resolve_sign_method).
@@ -28,8 +28,8 @@ MeshQueries::MeshQueries(const Mesh& mesh, SignMethod sign, double spacing, doub
         return boundary_free_ ? pseudo_normal_agrees_with_rays(mesh_, *distance_, *normals_, spacing, tree, 256)
                               : pseudo_normal_agrees_with_winding(mesh_, *distance_, *normals_, spacing, winding(), 256);
       };
-      if (sign == SignMethod::PseudoNormal || agree())
-        sign_ = SignMethod::PseudoNormal;
+      if (sign == SignMethod::kPseudoNormal || agree())
+        sign_ = SignMethod::kPseudoNormal;
       else
         normals_.reset();
     }

@@ -39,7 +39,7 @@ class MeshQueries {
 
  private:
   Mesh mesh_;
-  SignMethod sign_ = SignMethod::None;
+  SignMethod sign_ = SignMethod::kNone;
   double beta_ = 2.0;
   bool boundary_free_ = false;
   std::unique_ptr<MeshDistance> distance_;

@@ -1,6 +1,7 @@
 #include "sdf/normalize.h"
 
 #include "core/error.h"
+#include "core/json.h"
 
 #include <cmath>
 #include <vector>

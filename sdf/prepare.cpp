@@ -1,6 +1,7 @@
 #include "sdf/prepare.h"
 
 #include "core/error.h"
+#include "core/json.h"
 #include "sdf/mesh_queries.h"
 #include "sdf/normalize.h"
 #include "sdf/orientation.h"
@@ -18,9 +19,9 @@ namespace {
 
 const char* gt_name(GtSource g) {
   switch (g) {
-    case GtSource::Auto: return "auto";
-    case GtSource::Input: return "input";
-    case GtSource::IsoSurface: return "iso";
+    case GtSource::kAuto: return "auto";
+    case GtSource::kInput: return "input";
+    case GtSource::kIsoSurface: return "iso";
   }
   return "auto";
 }
@@ -110,7 +111,7 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
   const MatrixXfR samples = disn_samples(queries, sdf, settings.samples, &st.samples);
   lap(st.seconds_samples);
   report(0.85);
-  const bool use_input = settings.gt == GtSource::Input || (settings.gt == GtSource::Auto && st.closed_input);
+  const bool use_input = settings.gt == GtSource::kInput || (settings.gt == GtSource::kAuto && st.closed_input);
   st.gt_source = use_input ? "input" : "iso";
   Mesh gt = use_input ? object : iso_surface(sdf, settings.gt_iso);
   gt.colors.resize(0, 3);

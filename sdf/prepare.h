@@ -14,15 +14,15 @@ namespace sdfkit {
 
 /// How gt.obj is made.
 enum class GtSource {
-  Auto,        ///< the normalised input when it is closed, oriented and one part; otherwise the iso-surface
-  Input,       ///< always the normalised input mesh
-  IsoSurface,  ///< always the iso-surface of the SDF at `gt_iso`
+  kAuto,        ///< the normalised input when it is closed, oriented and one part; otherwise the iso-surface
+  kInput,       ///< always the normalised input mesh
+  kIsoSurface,  ///< always the iso-surface of the SDF at `gt_iso`
 };
 
 struct PrepareSettings {
   SparseSdfSettings grid;
   SampleSettings samples;
-  GtSource gt = GtSource::Auto;
+  GtSource gt = GtSource::kAuto;
   double gt_iso = 0.003;  ///< DISN's level for the iso-surface ground truth
   bool overwrite = false; ///< redo a shape even when its norm.json exists
   UpAxis up = UpAxis::kY; ///< the mesh file's up axis (prepare_shape turns it to +y first; norm.json records it)
@@ -35,7 +35,7 @@ struct PrepareStatus {
   long flipped_faces = 0;
   bool closed_input = false;
   std::string gt_source;    ///< "input" or "iso"
-  SignMethod sign = SignMethod::None;  ///< sign method used for the grid and the samples
+  SignMethod sign = SignMethod::kNone;  ///< sign method used for the grid and the samples
   long active_voxels = 0;
   size_t grid_bytes = 0;
   SampleReport samples;

@@ -22,7 +22,7 @@ struct SampleSettings {
   double winding_beta = 2.0;
   /// How the sign of a sample is decided (Auto: pseudo-normals for closed one-part meshes, else winding numbers;
   /// see resolve_sign_method in sdf/sparse_sdf.h).
-  SignMethod sign = SignMethod::Auto;
+  SignMethod sign = SignMethod::kAuto;
   long max_candidates_per_bin = 0;  ///< give up on a bin after this many tries (0 = 64 x its quota)
 };
 
@@ -34,7 +34,7 @@ struct SampleReport {
   /// Bins that the shape cannot fill (e.g. no inside deeper than 0.03 for a thin plate): their shortfall
   /// is redistributed to the other bins, nearest bin first, and reported here.
   long redistributed = 0;
-  SignMethod sign = SignMethod::None;  ///< the sign method used (Auto resolved)
+  SignMethod sign = SignMethod::kNone;  ///< the sign method used (Auto resolved)
 };
 
 /// N x 4 float32 rows (x, y, z, sdf) in the frame of `mesh` (the object frame in a prepared dataset): bins

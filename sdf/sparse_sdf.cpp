@@ -118,18 +118,18 @@ void make_uuid_deterministic(std::string& bytes) {
 
 const char* sign_method_name(SignMethod m) {
   switch (m) {
-    case SignMethod::WindingNumber: return "winding_number";
-    case SignMethod::None: return "none";
-    case SignMethod::PseudoNormal: return "pseudo_normal";
-    case SignMethod::Auto: return "auto";
+    case SignMethod::kWindingNumber: return "winding_number";
+    case SignMethod::kNone: return "none";
+    case SignMethod::kPseudoNormal: return "pseudo_normal";
+    case SignMethod::kAuto: return "auto";
   }
   return "auto";
 }
 
 SignMethod resolve_sign_method(const Mesh& mesh, SignMethod requested, double spacing) {
-  if (requested != SignMethod::Auto && requested != SignMethod::PseudoNormal) return requested;
-  if (!pseudo_normal_sign_applies(mesh)) return SignMethod::WindingNumber;
-  if (requested == SignMethod::PseudoNormal) return requested;  // explicit: no agreement test
+  if (requested != SignMethod::kAuto && requested != SignMethod::kPseudoNormal) return requested;
+  if (!pseudo_normal_sign_applies(mesh)) return SignMethod::kWindingNumber;
+  if (requested == SignMethod::kPseudoNormal) return requested;  // explicit: no agreement test
   return MeshQueries(mesh, requested, spacing).sign();
 }
 
@@ -168,7 +168,7 @@ SparseSdf SparseSdf::from_mesh(const Mesh& input, const SparseSdfSettings& s, Sp
   const auto t0 = std::chrono::steady_clock::now();
   Mesh mesh = input;
   long flipped = 0;
-  if (s.orient_faces && s.sign != SignMethod::None) {
+  if (s.orient_faces && s.sign != SignMethod::kNone) {
     OrientationReport orep;
     mesh = orient_consistently(input, &orep);
     flipped = orep.flipped_faces;
@@ -330,7 +330,7 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
   lap(st.seconds_exact);
   progress(0.5);
 
-  if (method != SignMethod::None) {
+  if (method != SignMethod::kNone) {
     // Inside measure: the winding number, or 1/0 from the pseudo-normal at the closest feature (closed meshes).
     const PseudoNormals* normals = queries.pseudo_normals();
     const WindingNumber* winding = normals ? nullptr : &queries.winding();

@@ -15,10 +15,10 @@ class MeshQueries;
 
 /// How the sign of the distance is decided.
 enum class SignMethod {
-  WindingNumber,  ///< inside iff generalized winding number > 0.5: open, soup, self-intersecting meshes
-  None,           ///< unsigned distances (no inside)
-  PseudoNormal,   ///< angle-weighted pseudo-normal at the closest feature: closed, oriented, one-part meshes
-  Auto,           ///< PseudoNormal when it applies (see resolve_sign_method), else WindingNumber
+  kWindingNumber,  ///< inside iff generalized winding number > 0.5: open, soup, self-intersecting meshes
+  kNone,           ///< unsigned distances (no inside)
+  kPseudoNormal,   ///< angle-weighted pseudo-normal at the closest feature: closed, oriented, one-part meshes
+  kAuto,           ///< PseudoNormal when it applies (see resolve_sign_method), else WindingNumber
 };
 
 /// What `requested` means for `mesh`: Auto becomes PseudoNormal when the mesh is closed, consistently
@@ -36,7 +36,7 @@ struct SparseSdfSettings {
   /// samples (sdf/samples.h) are computed exactly from the mesh and need no wide band; use 0.12 (0.1 + the
   /// 0.003 offset + ~1.8 voxels) when the grid itself must hold every |sdf - 0.003| <= 0.1.
   double band = 0.0;
-  SignMethod sign = SignMethod::Auto;
+  SignMethod sign = SignMethod::kAuto;
   double winding_beta = 2.0;       ///< accuracy of the hierarchical winding numbers
   /// Make face orientation consistent per connected part first (sdf/orientation.h) so that flipped faces and
   /// inside-out parts do not corrupt the winding number.
@@ -49,7 +49,7 @@ struct SparseSdfStats {
   long band_voxels = 0;          ///< voxels whose sign was decided
   long inside_tiles = 0;         ///< 8^3 tiles marked inside beyond the band
   long flipped_faces = 0;        ///< faces re-oriented before signing
-  SignMethod sign = SignMethod::None;  ///< the method actually used (Auto resolved)
+  SignMethod sign = SignMethod::kNone;  ///< the method actually used (Auto resolved)
   /// Wall seconds per stage: orient + sign-method choice, exact band (per leaf), leaf insertion, signs.
   double seconds_setup = 0, seconds_topology = 0, seconds_exact = 0, seconds_sign = 0;
 };

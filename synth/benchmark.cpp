@@ -1,6 +1,7 @@
 #include "synth/benchmark.h"
 
 #include "core/error.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "core/random.h"
 #include "synth/categories.h"

@@ -1,10 +1,11 @@
 // CLI-level tests of `sdfkit eval`: runs the built executable on meshes and dataset folders written by the test,
 // checks the scores against closed forms (two concentric spheres), the exit codes (0 / 1 / 2), and parses the
 // --json, --csv and -o outputs back.
+#include "cli_run.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "core/primitives.h"
-#include "cli_run.h"
 
 #include <doctest/doctest.h>
 

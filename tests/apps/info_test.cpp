@@ -1,6 +1,7 @@
 // CLI-level tests of `sdfkit info`: validation findings in text and JSON, --up.
-#include "core/files.h"
 #include "cli_run.h"
+#include "core/files.h"
+#include "core/json.h"
 
 #include <doctest/doctest.h>
 

@@ -1,11 +1,12 @@
 // CLI-level tests of `sdfkit recon` with the shipped models and examples (data/models, data/examples).
 #include "camera/camera.h"
 #include "camera/image.h"
+#include "cli_run.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "metrics/protocols.h"
 #include "sdf/orientation.h"
-#include "cli_run.h"
 
 #include <doctest/doctest.h>
 

@@ -1,6 +1,7 @@
 #include "camera/camera.h"
 #include "camera/rotation6d.h"
 #include "core/error.h"
+#include "core/json.h"
 #include "core/random.h"
 #include "scratch.h"
 

@@ -23,10 +23,10 @@ Image object_image() {
 TEST_CASE("occlusion: left and right halves of the object partition the image") {
   const Image clean = object_image();
   OcclusionSettings st;
-  st.mode = OcclusionMode::left;
+  st.mode = OcclusionMode::kLeft;
   Image left = clean;
   const Image ml = apply_occlusion(left, st, 0);
-  st.mode = OcclusionMode::right;
+  st.mode = OcclusionMode::kRight;
   Image right = clean;
   const Image mr = apply_occlusion(right, st, 0);
   // Split at the object's centre column: x = 40.
@@ -43,7 +43,7 @@ TEST_CASE("occlusion: left and right halves of the object partition the image") 
   Image shifted(80, 60, 4, 0.0f);
   for (int y = 0; y < 10; ++y)
     for (int x = 0; x < 10; ++x) shifted.at(x, y, 3) = 1.0f;
-  st.mode = OcclusionMode::left;
+  st.mode = OcclusionMode::kLeft;
   Image a = shifted;
   CHECK(apply_occlusion(a, st, 0).at(5, 0) == 0.0f);  // object centre 5: column 5 is in the right half
   st.split_at_object = false;
@@ -54,7 +54,7 @@ TEST_CASE("occlusion: left and right halves of the object partition the image") 
 TEST_CASE("occlusion: random rectangles are seeded, on the object, and zero what the mask says") {
   const Image clean = object_image();
   OcclusionSettings st;
-  st.mode = OcclusionMode::rect;
+  st.mode = OcclusionMode::kRect;
   st.rectangles = 2;
   Image a = clean, b = clean, c = clean;
   const Image ma = apply_occlusion(a, st, 42);
@@ -81,11 +81,11 @@ TEST_CASE("occlusion: none, parsing, bad settings") {
   const Image m = apply_occlusion(img, OcclusionSettings{}, 1);
   CHECK(img.data == before.data);
   for (float v : m.data) CHECK(v == 0.0f);
-  CHECK(parse_occlusion_mode("left") == OcclusionMode::left);
-  CHECK(to_string(OcclusionMode::rect) == "rect");
+  CHECK(parse_occlusion_mode("left") == OcclusionMode::kLeft);
+  CHECK(to_string(OcclusionMode::kRect) == "rect");
   CHECK_THROWS_AS(parse_occlusion_mode("top"), InvalidInput);
   OcclusionSettings bad;
-  bad.mode = OcclusionMode::rect;
+  bad.mode = OcclusionMode::kRect;
   bad.min_size = 0.8;
   bad.max_size = 0.4;
   CHECK_THROWS_AS(apply_occlusion(img, bad, 0), InvalidInput);

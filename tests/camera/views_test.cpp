@@ -1,6 +1,7 @@
 #include "camera/views.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/primitives.h"
 #include "scratch.h"
 
@@ -94,7 +95,7 @@ TEST_CASE("views: render_view_set writes PNG + JSON per view, byte-identical for
     CHECK(!fs::exists(d1 + "/" + n + "_mask.png"));
   }
   // Occluded view sets also write the mask and name the mode in the JSON.
-  st.occlusion.mode = OcclusionMode::right;
+  st.occlusion.mode = OcclusionMode::kRight;
   st.render.depth = false;
   const std::string d4 = tmpdir("d");
   render_view_set(m, d4, st, 11);

@@ -63,7 +63,7 @@ TEST_CASE("exact EMD equals the brute-force Hungarian optimum (n <= 200)") {
   }
   // Unbalanced clusters force the certificate to add edges (more than one round) and still match the optimum.
   const Points a = clustered(150, 3, 0.8, 1.0), b = clustered(150, 4, 0.2, 1.0);
-  const EmdResult e = emd_exact(a, b, EmdSettings{EmdMethod::exact, 4, 1e-9});
+  const EmdResult e = emd_exact(a, b, EmdSettings{EmdMethod::kExact, 4, 1e-9});
   CHECK(e.rounds >= 2);
   CHECK(e.total == doctest::Approx(emd_hungarian(a, b).total).epsilon(1e-10));
   // Duplicated points (ties everywhere)
@@ -99,7 +99,7 @@ TEST_CASE("sparse + certified EMD equals the dense solver on degenerate and clus
       b.row(i) = vb.row(static_cast<Eigen::Index>(rng.below(37)));
     }
     check_against_dense(a, b);
-    check_against_dense(a, b, EmdSettings{EmdMethod::exact, 2, 1e-9});  // tiny graph: the certificate does the work
+    check_against_dense(a, b, EmdSettings{EmdMethod::kExact, 2, 1e-9});  // tiny graph: the certificate does the work
   }
   SUBCASE("all points of one set equal; all points of both sets equal") {
     const Points b = random_cloud(200, 43);
@@ -112,7 +112,7 @@ TEST_CASE("sparse + certified EMD equals the dense solver on degenerate and clus
   SUBCASE("two far clusters of unequal sizes (80/20 against 20/80)") {
     const Points a = clustered(240, 44, 0.8, 1.5), b = clustered(240, 45, 0.2, 1.5);
     check_against_dense(a, b);
-    check_against_dense(a, b, EmdSettings{EmdMethod::exact, 4, 1e-9});
+    check_against_dense(a, b, EmdSettings{EmdMethod::kExact, 4, 1e-9});
   }
   SUBCASE("three distinct points with many copies against three others") {
     Rng rng(46);
@@ -166,6 +166,6 @@ TEST_CASE("EMD refuses mismatched sizes, empty and NaN sets with a clear message
   nan(0, 0) = std::nan("");
   CHECK_THROWS_WITH_AS(emd(a, nan), doctest::Contains("non-finite"), InvalidInput);
   CHECK_THROWS_AS(emd_approx(a, b), InvalidInput);
-  CHECK(parse_emd_method("approx") == EmdMethod::approx);
+  CHECK(parse_emd_method("approx") == EmdMethod::kApprox);
   CHECK_THROWS_AS(parse_emd_method("fast"), InvalidInput);
 }

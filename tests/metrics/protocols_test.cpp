@@ -1,3 +1,4 @@
+#include "core/json.h"
 #include "metrics/protocols.h"
 
 #include "core/error.h"
@@ -48,10 +49,10 @@ TEST_CASE("disn protocol reproduces the hand-computed example: two specks 0.1 ap
   for (const char* k : {"f_0.5", "f_1", "f_2", "p_2", "r_2"}) CHECK(value(r, k) == 0.0);
   for (const char* k : {"f_5", "f_10", "f_20", "p_5", "r_20"}) CHECK(value(r, k) == 100.0);
   CHECK(value(r, "iou") == 0.0);
-  CHECK(r.metrics.size() == metric_keys(Protocol::disn).size());
+  CHECK(r.metrics.size() == metric_keys(Protocol::kDisn).size());
   // approximate EMD on this example: all mass moves 0.1 whatever the plan
   ProtocolSettings approx = s;
-  approx.emd = EmdMethod::approx;
+  approx.emd = EmdMethod::kApprox;
   CHECK(value(evaluate(speck(Vec3::Zero()), speck(Vec3(0.1, 0, 0)), approx), "emd") ==
         doctest::Approx(0.256).epsilon(1e-3));
   // the default sample count is DISN's 2048
@@ -62,7 +63,7 @@ TEST_CASE("disn protocol reproduces the hand-computed example: two specks 0.1 ap
 
 TEST_CASE("tmnet protocol reproduces the hand-computed example") {
   ProtocolSettings s;
-  s.protocol = Protocol::tmnet;
+  s.protocol = Protocol::kTmnet;
   s.samples = 256;  // the numbers below do not depend on n
   const EvalResult r = evaluate(speck(Vec3::Zero()), speck(Vec3(0, 0.2, 0)), s);
   CHECK(value(r, "cd") == doctest::Approx((0.04 + 0.04) * 1000).epsilon(1e-5));  // 80
@@ -71,7 +72,7 @@ TEST_CASE("tmnet protocol reproduces the hand-computed example") {
 
 TEST_CASE("onet protocol reproduces the hand-computed example, and its IoU on two unit cubes") {
   ProtocolSettings s;
-  s.protocol = Protocol::onet;
+  s.protocol = Protocol::kOnet;
   s.samples = 1000;
   s.with_iou = false;
   const EvalResult r = evaluate(speck(Vec3::Zero()), speck(Vec3(0, 0, 0.3)), s);
@@ -90,11 +91,11 @@ TEST_CASE("onet protocol reproduces the hand-computed example, and its IoU on tw
 
 TEST_CASE("protocols are deterministic given the seed and independent of the thread count") {
   const Mesh a = make_torus(Vec3::Zero(), 0.6, 0.25, 48, 24), b = make_icosphere(Vec3(0.05, 0, 0), 0.7, 3);
-  for (Protocol p : {Protocol::disn, Protocol::tmnet, Protocol::onet}) {
+  for (Protocol p : {Protocol::kDisn, Protocol::kTmnet, Protocol::kOnet}) {
     ProtocolSettings s;
     s.protocol = p;
     s.seed = 9;
-    s.samples = p == Protocol::onet ? 5000 : 512;
+    s.samples = p == Protocol::kOnet ? 5000 : 512;
     s.iou_points = 5000;
     Json one;
     {
@@ -122,7 +123,7 @@ TEST_CASE("point clouds: IoU and normal consistency are null with a note, errors
   nan.V(0, 0) = std::nan("");
   CHECK_THROWS_WITH_AS(evaluate(mesh, nan, {}), doctest::Contains("ground truth: non-finite"), InvalidInput);
   CHECK_THROWS_AS(parse_protocol("pix2mesh"), InvalidInput);
-  CHECK(parse_protocol("tmnet") == Protocol::tmnet);
+  CHECK(parse_protocol("tmnet") == Protocol::kTmnet);
 }
 
 TEST_CASE("point clouds of exactly the protocol's count are scored as given: the exact CD and EMD") {
@@ -134,7 +135,7 @@ TEST_CASE("point clouds of exactly the protocol's count are scored as given: the
   a.V.resize(2048, 3);
   for (int i = 0; i < 2048; ++i) a.V.row(i) << i, 0, 0;
   b.V = a.V.rowwise() + Vec3(0, 0.1, 0).transpose();
-  for (Protocol p : {Protocol::tmnet, Protocol::disn}) {
+  for (Protocol p : {Protocol::kTmnet, Protocol::kDisn}) {
     ProtocolSettings s;
     s.protocol = p;
     s.with_iou = false;
@@ -143,11 +144,11 @@ TEST_CASE("point clouds of exactly the protocol's count are scored as given: the
     CHECK(r.gt_sampling == "as_given");
     CHECK(r.to_json()["sampling"]["prediction"] == "as_given");
     CHECK(value(r, "cd") == doctest::Approx(20.0).epsilon(1e-9));
-    CHECK(value(r, "emd") == doctest::Approx(p == Protocol::tmnet ? 0.1 * 100 : 2048 * 0.1 * 0.01).epsilon(1e-9));
+    CHECK(value(r, "emd") == doctest::Approx(p == Protocol::kTmnet ? 0.1 * 100 : 2048 * 0.1 * 0.01).epsilon(1e-9));
   }
   // More points than the count: subsampled without replacement; fewer: padded; meshes say how they were sampled.
   ProtocolSettings s;
-  s.protocol = Protocol::tmnet;
+  s.protocol = Protocol::kTmnet;
   s.samples = 1000;
   s.with_emd = false;
   Mesh small;
@@ -157,7 +158,7 @@ TEST_CASE("point clouds of exactly the protocol's count are scored as given: the
   CHECK(r.gt_sampling == "padded");
   const EvalResult m = evaluate(make_icosphere(Vec3::Zero(), 1, 2), a, s);
   CHECK(m.pred_sampling == "surface");
-  s.protocol = Protocol::disn;
+  s.protocol = Protocol::kDisn;
   s.with_iou = false;
   CHECK(evaluate(make_icosphere(Vec3::Zero(), 1, 2), a, s).pred_sampling == "vertices_with_replacement");
 }

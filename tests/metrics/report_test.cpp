@@ -1,5 +1,7 @@
 #include "metrics/report.h"
 
+#include "core/json.h"
+
 #include <doctest/doctest.h>
 
 using namespace sdfkit;
@@ -12,9 +14,9 @@ ShapeRecord record(const std::string& cat, const std::string& shape, double cd, 
   r.category = cat;
   r.shape = shape;
   r.status = "ok";
-  r.result.protocol = Protocol::disn;
+  r.result.protocol = Protocol::kDisn;
   r.result.seconds = 1.0;
-  for (const auto& [key, label] : metric_keys(Protocol::disn)) r.result.metrics.push_back({key, label, 0.0, ""});
+  for (const auto& [key, label] : metric_keys(Protocol::kDisn)) r.result.metrics.push_back({key, label, 0.0, ""});
   for (auto& m : r.result.metrics) {
     if (m.key == "cd") m.value = cd;
     if (m.key == "p_1") m.value = p1;
@@ -34,7 +36,7 @@ TEST_CASE("summary: category means, DISN's pooled F-score, mean of categories, m
   missing.shape = "d";
   missing.status = "missing";
   recs.push_back(missing);
-  const Summary s = summarize(recs, Protocol::disn);
+  const Summary s = summarize(recs, Protocol::kDisn);
   REQUIRE(s.categories.size() == 2);
   const CategorySummary& chair = s.categories[0];
   CHECK(chair.values.at("cd").value() == doctest::Approx(3.0));
@@ -49,7 +51,7 @@ TEST_CASE("summary: category means, DISN's pooled F-score, mean of categories, m
   CHECK(md.find("| disn | chair | plane | mean |") == 0);
   CHECK(md.find("| CD (x1000) | 3.000 | 10.000 | 6.500 |") != std::string::npos);
   CHECK(md.find("| missing predictions | 0 | 1 | 1 |") != std::string::npos);
-  const std::string csv = per_shape_csv(recs, Protocol::disn);
+  const std::string csv = per_shape_csv(recs, Protocol::kDisn);
   CHECK(csv.find("plane,d,missing,") != std::string::npos);
   CHECK(summary_json(s, recs)["problems"].size() == 1);
 }

@@ -111,17 +111,17 @@ TEST_CASE("sampling without replacement draws distinct rows of the set, in order
 TEST_CASE("point clouds become n points: as given, subsampled without replacement, or padded keeping every point") {
   Points pts(100, 3);
   for (int i = 0; i < 100; ++i) pts.row(i) << i, 2 * i, 0;
-  CloudSampling how = CloudSampling::padded;
+  CloudSampling how = CloudSampling::kPadded;
   CHECK(sample_cloud(pts, 100, 3, &how) == pts);
-  CHECK(how == CloudSampling::as_given);
+  CHECK(how == CloudSampling::kAsGiven);
   const Points sub = sample_cloud(pts, 40, 3, &how);
-  CHECK(how == CloudSampling::subsampled);
+  CHECK(how == CloudSampling::kSubsampled);
   CHECK(to_string(how) == "subsampled");
   std::set<double> xs;
   for (int i = 0; i < 40; ++i) xs.insert(sub(i, 0));
   CHECK(xs.size() == 40);  // no point twice
   const Points pad = sample_cloud(pts, 250, 3, &how);
-  CHECK(how == CloudSampling::padded);
+  CHECK(how == CloudSampling::kPadded);
   REQUIRE(pad.rows() == 250);
   CHECK(pad.topRows(100) == pts);  // every point once, then repeats of points of the set
   for (int i = 100; i < 250; ++i) CHECK(pad(i, 1) == 2 * pad(i, 0));

@@ -1,3 +1,4 @@
+#include "core/json.h"
 #include "nets/checkpoint.h"
 
 #include "nets/layers.h"
@@ -35,7 +36,7 @@ struct Tiny {
     store.allocate(true);
     store.init(42);
     opt = Optimizer(OptimizerSettings{}, store.size());
-    lr.kind = LrSchedule::Kind::Step;
+    lr.kind = LrSchedule::Kind::kStep;
     lr.base = 1e-2;
     lr.step_size = 3;
     lr.gamma = 0.5;

@@ -55,18 +55,18 @@ TEST_CASE("linear / point MLP gradients on N x P x C") {
   // Many rows: several reduction chunks.
   Linear<double> big(4, 3);
   check_layer_gradients(big, random_tensor({2, 700, 4}, 3));
-  auto mlp = make_point_mlp<double>({3, 8, 16, 4}, ActivationKind::ReLU, false);
+  auto mlp = make_point_mlp<double>({3, 8, 16, 4}, ActivationKind::kReLU, false);
   mlp->training(true);
   check_layer_gradients(*mlp, random_tensor({2, 50, 3}, 4));
 }
 
 TEST_CASE("activations gradients") {
-  for (auto kind : {ActivationKind::ReLU, ActivationKind::LeakyReLU, ActivationKind::Sigmoid, ActivationKind::Tanh}) {
+  for (auto kind : {ActivationKind::kReLU, ActivationKind::kLeakyReLU, ActivationKind::kSigmoid, ActivationKind::kTanh}) {
     Activation<double> a(kind, 0.1);
     check_layer_gradients(a, random_tensor({2, 3, 5}, 9, -3, 3));
   }
   // LeakyReLU values
-  Activation<double> lr(ActivationKind::LeakyReLU, 0.2);
+  Activation<double> lr(ActivationKind::kLeakyReLU, 0.2);
   TensorD x({1, 2}), y;
   x[0] = -2;
   x[1] = 3;
@@ -76,10 +76,10 @@ TEST_CASE("activations gradients") {
 }
 
 TEST_CASE("pooling gradients and values") {
-  Pool2d<double> mp(PoolKind::Max, 2, 2), ap(PoolKind::Average, 3, 2);
+  Pool2d<double> mp(PoolKind::kMax, 2, 2), ap(PoolKind::kAverage, 3, 2);
   check_layer_gradients(mp, random_tensor({2, 3, 7, 6}, 21));
   check_layer_gradients(ap, random_tensor({2, 3, 7, 6}, 22));
-  GlobalPool<double> gap(PoolKind::Average), gmp(PoolKind::Max);
+  GlobalPool<double> gap(PoolKind::kAverage), gmp(PoolKind::kMax);
   check_layer_gradients(gap, random_tensor({2, 3, 4, 5}, 23));
   check_layer_gradients(gmp, random_tensor({2, 3, 4, 5}, 24));
   TensorD x({1, 1, 2, 2}), y;
@@ -121,11 +121,48 @@ TEST_CASE("sequential conv net gradients (conv, relu, pool, flatten, linear)") {
   net.add(leaky_relu<double>(0.1));
   net.emplace<Conv2d<double>>(Conv2dSettings{4, 3, 3, 1, 1, true});
   net.add(relu<double>());
-  net.emplace<Pool2d<double>>(PoolKind::Average, 2, 2);
+  net.emplace<Pool2d<double>>(PoolKind::kAverage, 2, 2);
   net.emplace<Flatten<double>>();
   net.emplace<Linear<double>>(3 * 2 * 2, 5);
   net.training(true);
   check_layer_gradients(net, random_tensor({3, 2, 9, 9}, 41));
+}
+
+TEST_CASE("sequential with caller-owned activations: the same output and gradients as the stateful path") {
+  Sequential<double> net;
+  net.emplace<Conv2d<double>>(Conv2dSettings{2, 3, 3, 2, 1, true});
+  net.add(relu<double>());
+  net.emplace<Flatten<double>>();
+  net.emplace<Linear<double>>(3 * 4 * 4, 5);
+  ParamStore<double> store;
+  store.add(net);
+  store.allocate(true);
+  store.init(8);
+  const TensorD x = random_tensor({2, 2, 7, 7}, 9), dy = random_tensor({2, 5}, 10);
+  net.training(true);
+  TensorD y, dx;
+  store.zero_grad();
+  net.forward(x, y);
+  net.backward(x, y, dy, &dx);
+  const std::vector<double> grads(store.grads.begin(), store.grads.end());
+  std::vector<TensorD> acts;
+  TensorD dx2, y_run;
+  store.zero_grad();
+  net.forward_into(x, acts);
+  REQUIRE(acts.size() == net.size());
+  CHECK(Sequential<double>::output(x, acts).data == y.data);
+  net.backward_from(x, acts, dy, &dx2);
+  CHECK(dx2.data == dx.data);
+  CHECK(std::equal(grads.begin(), grads.end(), store.grads.begin()));
+  net.run(x, y_run);
+  CHECK(y_run.data == y.data);
+  double first = 0;
+  Shape out;
+  CHECK(net.flops(x.shape, &first, &out) == doctest::Approx(net.forward_flops(x.shape)));
+  CHECK(first == doctest::Approx(net[0].forward_flops(x.shape)));
+  CHECK(out == y.shape);
+  std::vector<TensorD> wrong(1);
+  CHECK_THROWS_AS(net.backward_from(x, wrong, dy, nullptr), InvalidInput);
 }
 
 TEST_CASE("concat and broadcast: values and adjoint identity") {

@@ -7,6 +7,7 @@
 #include "camera/image.h"
 #include "cli_run.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/random.h"
 #include "nets/checkpoint.h"
 

@@ -30,7 +30,7 @@ TEST_CASE("Adam: first step matches the closed form, minimises a quadratic") {
 
 TEST_CASE("SGD with momentum and weight decay: closed forms") {
   OptimizerSettings s;
-  s.kind = OptimizerSettings::Kind::Sgd;
+  s.kind = OptimizerSettings::Kind::kSgd;
   s.momentum = 0.9;
   s.weight_decay = 0.1;
   Optimizer opt(s, 1);
@@ -52,13 +52,13 @@ TEST_CASE("learning-rate schedules") {
   LrSchedule s;
   s.base = 1.0;
   CHECK(s.at(12345) == 1.0);
-  s.kind = LrSchedule::Kind::Step;
+  s.kind = LrSchedule::Kind::kStep;
   s.gamma = 0.9;
   s.step_size = 10;
   CHECK(s.at(9) == doctest::Approx(1.0));
   CHECK(s.at(10) == doctest::Approx(0.9));
   CHECK(s.at(25) == doctest::Approx(0.81));
-  s.kind = LrSchedule::Kind::Cosine;
+  s.kind = LrSchedule::Kind::kCosine;
   s.total_steps = 100;
   s.min_lr = 0.1;
   CHECK(s.at(0) == doctest::Approx(1.0));
@@ -106,7 +106,7 @@ TEST_CASE("optimizer state round trip continues identically") {
   Optimizer wrong(s, 4);
   CHECK_THROWS_AS(wrong.deserialize(a.serialize()), IoError);
   OptimizerSettings sgd;
-  sgd.kind = OptimizerSettings::Kind::Sgd;
+  sgd.kind = OptimizerSettings::Kind::kSgd;
   Optimizer other(sgd, 3);
   CHECK_THROWS_AS(other.deserialize(a.serialize()), IoError);
 }
@@ -121,7 +121,7 @@ TEST_CASE("a tiny conv + point-MLP network overfits a tiny batch to near-zero lo
   net.add(relu<float>());
   net.emplace<Conv2d<float>>(Conv2dSettings{8, 8, 3, 1, 1, true});
   net.add(leaky_relu<float>(0.1));
-  net.emplace<GlobalPool<float>>(PoolKind::Average);
+  net.emplace<GlobalPool<float>>(PoolKind::kAverage);
   net.emplace<Linear<float>>(8, 16);
   net.add(relu<float>());
   net.emplace<Linear<float>>(16, 3);

@@ -1,3 +1,4 @@
+#include "core/json.h"
 #include "nets/pose_net.h"
 
 #include "camera/rotation6d.h"

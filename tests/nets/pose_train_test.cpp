@@ -1,3 +1,4 @@
+#include "core/json.h"
 #include "nets/pose_train.h"
 
 #include "camera/camera.h"

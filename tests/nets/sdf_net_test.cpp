@@ -1,3 +1,4 @@
+#include "core/json.h"
 #include "nets/sdf_net.h"
 
 #include "camera/camera.h"
@@ -37,9 +38,9 @@ TensorT<T> random_tensor(const Shape& s, Rng& rng, double lo, double hi) {
 /// Every variant with the default stride-2 first stage, and the two-stream network with a full-resolution one.
 std::vector<SdfNetConfig> tiny_configs() {
   std::vector<SdfNetConfig> all;
-  for (SdfVariant v : {SdfVariant::TwoStream, SdfVariant::OneStream, SdfVariant::GlobalOnly, SdfVariant::Binary})
+  for (SdfVariant v : {SdfVariant::kTwoStream, SdfVariant::kOneStream, SdfVariant::kGlobalOnly, SdfVariant::kBinary})
     all.push_back(tiny_config(v));
-  all.push_back(tiny_config(SdfVariant::TwoStream, 1));
+  all.push_back(tiny_config(SdfVariant::kTwoStream, 1));
   return all;
 }
 
@@ -139,7 +140,7 @@ TEST_CASE("SDF network: training forward and the per-shape inference path agree,
 }
 
 TEST_CASE("SDF network: the local-feature path is used and samples where the point projects") {
-  SdfNetT<double> net(tiny_config(SdfVariant::TwoStream));
+  SdfNetT<double> net(tiny_config(SdfVariant::kTwoStream));
   net.init(9);
   Rng rng(4);
   const int S = 17;
@@ -202,7 +203,7 @@ TEST_CASE("SDF network: the local-feature path is used and samples where the poi
   net.predict(code, p, after);
   CHECK((before - after).cwiseAbs().maxCoeff() > 1e-6);
   // ... while for the global-only variant the maps are not read by the decoder at all.
-  SdfNetT<double> g(tiny_config(SdfVariant::GlobalOnly));
+  SdfNetT<double> g(tiny_config(SdfVariant::kGlobalOnly));
   g.init(9);
   auto gcode = g.encode(image.ptr(), cam);
   g.predict(gcode, p, before);
@@ -214,7 +215,7 @@ TEST_CASE("SDF network: the local-feature path is used and samples where the poi
 }
 
 TEST_CASE("SDF network configuration round-trips through JSON and rejects bad values") {
-  SdfNetConfig c = tiny_config(SdfVariant::OneStream);
+  SdfNetConfig c = tiny_config(SdfVariant::kOneStream);
   const SdfNetConfig d = SdfNetConfig::from_json(c.to_json());
   CHECK(d.to_json() == c.to_json());
   Json bad = c.to_json();
@@ -224,12 +225,12 @@ TEST_CASE("SDF network configuration round-trips through JSON and rejects bad va
   bad.erase("decoder");
   CHECK_THROWS_AS(SdfNetConfig::from_json(bad), IoError);
   // Models written before first_stride existed load with the stride-2 first stage they were trained with.
-  bad = tiny_config(SdfVariant::TwoStream, 1).to_json();
+  bad = tiny_config(SdfVariant::kTwoStream, 1).to_json();
   CHECK(SdfNetConfig::from_json(bad).first_stride == 1);
   bad.erase("first_stride");
   CHECK(SdfNetConfig::from_json(bad).first_stride == 2);
-  CHECK(SdfNetT<float>{tiny_config(SdfVariant::TwoStream, 1)}.map_sizes() == std::vector<int>{17, 9, 5});
-  CHECK(SdfNetT<float>{tiny_config(SdfVariant::TwoStream, 2)}.map_sizes() == std::vector<int>{9, 5, 3});
+  CHECK(SdfNetT<float>{tiny_config(SdfVariant::kTwoStream, 1)}.map_sizes() == std::vector<int>{17, 9, 5});
+  CHECK(SdfNetT<float>{tiny_config(SdfVariant::kTwoStream, 2)}.map_sizes() == std::vector<int>{9, 5, 3});
   c.first_stride = 3;
   CHECK_THROWS_AS(SdfNetT<float>{c}, InvalidInput);
   c.first_stride = 2;

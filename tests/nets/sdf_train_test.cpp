@@ -1,3 +1,4 @@
+#include "core/json.h"
 #include "nets/sdf_train.h"
 
 #include "camera/camera.h"
@@ -109,7 +110,7 @@ TEST_CASE("train sdf overfits one shape: IoU > 0.95 on a grid against the exact 
   st.data = root.string();
   st.val_split = "";
   st.out = (root / "m.ckpt").string();
-  st.net = small_config(SdfVariant::TwoStream);
+  st.net = small_config(SdfVariant::kTwoStream);
   st.steps = 600;
   st.batch = 1;
   st.points = 1024;
@@ -153,7 +154,7 @@ TEST_CASE("train sdf overfits one shape: IoU > 0.95 on a grid against the exact 
 TEST_CASE("resumed training continues bit for bit") {
   const fs::path root = make_torus_dataset("sdf_train_resume");
   // Constant rate (tiny_run): the schedule must not depend on --steps, which differs between the runs.
-  SdfTrainSettings st = tiny_run(root, SdfVariant::OneStream);
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kOneStream);
   const SdfTrainResult r = straight_and_split(st, root, "const");
   CHECK(r.start_step == 3);
   CHECK(params(root, "const_straight.ckpt") == params(root, "const_split.ckpt"));
@@ -175,7 +176,7 @@ TEST_CASE("resumed training continues bit for bit") {
 
 TEST_CASE("a run killed while saving resumes from its checkpoint, drops later curve rows, removes temporaries") {
   const fs::path root = make_torus_dataset("sdf_train_killed");
-  SdfTrainSettings st = tiny_run(root, SdfVariant::TwoStream);
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
   st.steps = 6;
   st.out = (root / "straight.ckpt").string();
   train_sdf(st);
@@ -217,7 +218,7 @@ TEST_CASE("a run killed while saving resumes from its checkpoint, drops later cu
 
 TEST_CASE("data-parallel training gives the same checkpoint for 1 and 2 threads") {
   const fs::path root = make_torus_dataset("sdf_train_threads");
-  SdfTrainSettings st = tiny_run(root, SdfVariant::TwoStream);
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
   st.batch = 3;  // odd: the two threads get unequal shares
   st.steps = 4;
   st.camera_jitter_deg = 5;
@@ -274,7 +275,7 @@ TEST_CASE("camera jitter turns each camera about the object's vertical axis by a
 
 TEST_CASE("--init starts from a model's weights, and jittered training is seeded and resumes bit for bit") {
   const fs::path root = make_torus_dataset("sdf_train_init");
-  SdfTrainSettings st = tiny_run(root, SdfVariant::TwoStream);
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
   st.out = (root / "a.ckpt").string();
   st.steps = 3;
   train_sdf(st);
@@ -325,7 +326,7 @@ TEST_CASE("a checkpoint of every variant loads back to the same predictions, dam
   PointsF pts(50, 3);
   for (Eigen::Index i = 0; i < pts.size(); ++i) pts.data()[i] = static_cast<float>(rng.uniform(-0.8, 0.8));
   const Camera cam = look_at(200, 28, 2.6);
-  for (SdfVariant v : {SdfVariant::TwoStream, SdfVariant::OneStream, SdfVariant::GlobalOnly, SdfVariant::Binary}) {
+  for (SdfVariant v : {SdfVariant::kTwoStream, SdfVariant::kOneStream, SdfVariant::kGlobalOnly, SdfVariant::kBinary}) {
     CAPTURE(to_string(v));
     SdfNet net(small_config(v));
     net.init(17);

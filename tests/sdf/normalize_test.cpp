@@ -1,4 +1,5 @@
 #include "core/error.h"
+#include "core/json.h"
 #include "core/primitives.h"
 #include "sdf/normalize.h"
 

@@ -1,9 +1,10 @@
 // End-to-end tests of `sdfkit prep` (exit codes, manifest, resume, reproducibility) through the real binary.
+#include "cli_run.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
 #include "core/primitives.h"
 #include "sdf/prepare.h"
-#include "cli_run.h"
 
 #include <doctest/doctest.h>
 

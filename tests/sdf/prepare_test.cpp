@@ -1,9 +1,10 @@
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
 #include "core/mesh_io.h"
+#include "scratch.h"
 #include "sdf/prepare.h"
 #include "test_meshes.h"
-#include "scratch.h"
 
 #include <doctest/doctest.h>
 

@@ -73,13 +73,13 @@ TEST_CASE("pseudo-normals apply only to closed, consistently oriented, one-part 
   CHECK_FALSE(pseudo_normal_sign_applies(test::flip_every(make_icosphere(Vec3::Zero(), 0.5, 2), 7)));
   CHECK(pseudo_normal_sign_applies(orient_consistently(test::flip_every(make_icosphere(Vec3::Zero(), 0.5, 2), 7))));
   // resolve_sign_method: Auto picks pseudo-normals only where they apply; explicit methods stay.
-  CHECK(resolve_sign_method(make_torus(Vec3::Zero(), 0.55, 0.2, 48, 24), SignMethod::Auto, 0.02) ==
-        SignMethod::PseudoNormal);
-  CHECK(resolve_sign_method(test::open_box(), SignMethod::Auto, 0.02) == SignMethod::WindingNumber);
-  CHECK(resolve_sign_method(two, SignMethod::Auto, 0.02) == SignMethod::WindingNumber);
-  CHECK(resolve_sign_method(test::open_box(), SignMethod::PseudoNormal, 0.02) == SignMethod::WindingNumber);
-  CHECK(resolve_sign_method(make_box(Vec3::Constant(-1), Vec3::Constant(1)), SignMethod::WindingNumber, 0.02) ==
-        SignMethod::WindingNumber);
+  CHECK(resolve_sign_method(make_torus(Vec3::Zero(), 0.55, 0.2, 48, 24), SignMethod::kAuto, 0.02) ==
+        SignMethod::kPseudoNormal);
+  CHECK(resolve_sign_method(test::open_box(), SignMethod::kAuto, 0.02) == SignMethod::kWindingNumber);
+  CHECK(resolve_sign_method(two, SignMethod::kAuto, 0.02) == SignMethod::kWindingNumber);
+  CHECK(resolve_sign_method(test::open_box(), SignMethod::kPseudoNormal, 0.02) == SignMethod::kWindingNumber);
+  CHECK(resolve_sign_method(make_box(Vec3::Constant(-1), Vec3::Constant(1)), SignMethod::kWindingNumber, 0.02) ==
+        SignMethod::kWindingNumber);
 }
 
 TEST_CASE("a self-intersecting closed one-part mesh fails the agreement guard and falls back to winding numbers") {
@@ -100,7 +100,7 @@ TEST_CASE("a self-intersecting closed one-part mesh fails the agreement guard an
     return wn;
   };
   CHECK_FALSE(pseudo_normal_agrees_with_rays(m, dist, normals, 0.02, fallback, 2000));
-  CHECK(resolve_sign_method(m, SignMethod::Auto, 0.02) == SignMethod::WindingNumber);
+  CHECK(resolve_sign_method(m, SignMethod::kAuto, 0.02) == SignMethod::kWindingNumber);
 }
 
 TEST_CASE("grids signed by pseudo-normals and by winding numbers agree on closed meshes") {
@@ -108,13 +108,13 @@ TEST_CASE("grids signed by pseudo-normals and by winding numbers agree on closed
     CAPTURE(name);
     SparseSdfSettings s;
     s.voxel_size = 0.03;
-    s.sign = SignMethod::PseudoNormal;
+    s.sign = SignMethod::kPseudoNormal;
     SparseSdfStats st_pn, st_wn;
     const SparseSdf a = SparseSdf::from_mesh(mesh, s, &st_pn);
-    s.sign = SignMethod::WindingNumber;
+    s.sign = SignMethod::kWindingNumber;
     const SparseSdf b = SparseSdf::from_mesh(mesh, s, &st_wn);
-    CHECK(st_pn.sign == SignMethod::PseudoNormal);
-    CHECK(st_wn.sign == SignMethod::WindingNumber);
+    CHECK(st_pn.sign == SignMethod::kPseudoNormal);
+    CHECK(st_wn.sign == SignMethod::kWindingNumber);
     REQUIRE(a.active_voxel_count() == b.active_voxel_count());
     long differ = 0, voxels = 0;
     const auto ga = vdb_grid(a);

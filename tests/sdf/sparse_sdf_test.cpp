@@ -88,7 +88,7 @@ TEST_CASE("sparse SDF: inside tiles beyond the band are negative, outside positi
 TEST_CASE("sparse SDF: unsigned mode has no negative values, batch values equal single values") {
   SparseSdfSettings s;
   s.voxel_size = 0.03;
-  s.sign = SignMethod::None;
+  s.sign = SignMethod::kNone;
   const SparseSdf sdf = SparseSdf::from_mesh(make_box(Vec3::Constant(-0.5), Vec3::Constant(0.5)), s);
   bool any_negative = false;
   for_each_leaf_voxel(sdf, [&](const Vec3&, double v, bool) { any_negative |= v < 0; });
@@ -191,7 +191,7 @@ TEST_CASE("sparse SDF: band signs equal the winding-number sign at the default v
   for (const auto& [name, mesh] : meshes) {
     CAPTURE(name);
     SparseSdfSettings s;  // default voxel 2.4/256, band 3 voxels
-    s.sign = SignMethod::WindingNumber;
+    s.sign = SignMethod::kWindingNumber;
     const SparseSdf sdf = SparseSdf::from_mesh(mesh, s);
     const WindingNumber wn(mesh);
     long checked = 0, wrong = 0, index = 0;

@@ -1,3 +1,4 @@
+#include "core/json.h"
 #include "synth/benchmark.h"
 
 #include "core/error.h"
