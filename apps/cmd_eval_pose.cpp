@@ -48,6 +48,12 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                  "more than this many times the probability mass of the regressed one (0 = off: the 6D head alone)")
       ->capture_default_str()
       ->check(non_negative());
+  app.add_option("--zoom", o->e.zoom,
+                 "magnify every view by this factor about its centre and divide the true camera distance by it "
+                 "(less where the object would leave the frame): how well the model reads the distance from the "
+                 "object's size, as recon needs for reframed photos (1 = the views as rendered)")
+      ->capture_default_str()
+      ->check(in_range(0.25, 4.0));
   app.add_flag("--json", o->json, "print JSON (overall + per category) instead of text");
   return [o] {
     const auto t0 = std::chrono::steady_clock::now();
@@ -92,7 +98,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       Json j = scores(all);
       j.update({{"model", o->model}, {"data", o->data}, {"split", o->split}, {"shapes", data.size()},
                 {"azimuth_bins", net->settings().azimuth_bins}, {"flip_check", o->flip_check},
-                {"points", o->e.points}, {"seconds", seconds}, {"per_category", cats}});
+                {"points", o->e.points}, {"zoom", o->e.zoom}, {"seconds", seconds}, {"per_category", cats}});
       if (o->symmetry) {
         j["symmetry_tol"] = o->symmetry_tol;
         j["symmetries"] = symmetries;

@@ -9,6 +9,7 @@
 #include "sdf/prepare.h"
 #include "sdf/symmetry.h"
 
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 
@@ -21,6 +22,7 @@ std::function<int()> setup_train_pose(CLI::App& app) {
     double minutes = 0;
     double symmetry_tol = 0.01;
     bool json = false;
+    std::string zoom_range = "0.7,1.6";
   };
   auto o = std::make_shared<Opts>();
   PoseTrainSettings& s = o->s;
@@ -87,6 +89,15 @@ std::function<int()> setup_train_pose(CLI::App& app) {
                  "standard deviation of Gaussian pixel noise added to training images in [0, 1] (0 = off)")
       ->capture_default_str()
       ->check(non_negative());
+  app.add_option("--aug-zoom", s.zoom.prob,
+                 "probability of magnifying a training image about its centre by a factor from --zoom-range, the "
+                 "camera distance divided by it, so that the model reads the distance from the object's size "
+                 "(0 = off); the distance range must cover the zoomed distances")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
+  app.add_option("--zoom-range", o->zoom_range,
+                 "MIN,MAX: range of the zoom factor (log-uniform; lowered where the object would leave the frame)")
+      ->capture_default_str();
   app.add_option("--seed", s.seed, "seed of the initialisation, of every batch and of the augmentation")
       ->capture_default_str();
   app.add_option("--init", s.init,
@@ -100,6 +111,20 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   return [o] {
     PoseTrainSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
+    {
+      double lo = 0, hi = 0;
+      char tail = 0;
+      if (std::sscanf(o->zoom_range.c_str(), "%lf,%lf%c", &lo, &hi, &tail) != 2 || !(lo > 0) || !(hi >= lo) ||
+          !std::isfinite(hi))
+        throw InvalidInput("train pose: --zoom-range wants MIN,MAX with 0 < MIN <= MAX, got '" + o->zoom_range + "'");
+      s.zoom.min = lo;
+      s.zoom.max = hi;
+      if (s.zoom.enabled() && (s.net.distance_min > 2.45 / hi || s.net.distance_max < 3.0 / lo))
+        std::fprintf(stderr,
+                     "train pose: warning: zoomed distances reach [%.3g, %.3g] for views rendered at [2.45, 3], "
+                     "outside --distance-min/--distance-max [%.3g, %.3g]\n",
+                     2.45 / hi, 3.0 / lo, s.net.distance_min, s.net.distance_max);
+    }
     if (o->symmetry_tol > 0) {
       const double tol = o->symmetry_tol;
       s.symmetries = [tol](const ShapeEntry& shape) {

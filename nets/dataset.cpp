@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <mutex>
 #include <numeric>
 #include <sstream>
@@ -324,6 +325,104 @@ void augment_images(MatrixXfR& images, const ImageAugmentSettings& a, uint64_t s
     if (a.noise > 0)
       for (Eigen::Index i = 0; i < 3 * plane; ++i)
         row[i] = std::clamp(row[i] + static_cast<float>(a.noise * rng.normal()), 0.f, 1.f);
+  });
+}
+
+}  // namespace sdfkit
+
+namespace sdfkit {
+
+Json ZoomAugmentSettings::to_json() const { return {{"prob", prob}, {"min", min}, {"max", max}}; }
+
+namespace {
+
+/// Non-white: some channel darker than 1 - kZoomInk (the white background is exactly kNetBackground).
+constexpr float kZoomInk = 0.05f;
+
+int square_side(Eigen::Index values, const char* what) {
+  const Eigen::Index plane = values / 3;
+  const auto side = static_cast<Eigen::Index>(std::lround(std::sqrt(static_cast<double>(plane))));
+  require(values % 3 == 0 && side * side == plane && side > 0,
+          std::string(what) + ": rows must hold 3 square channels, got " + std::to_string(values) + " values");
+  return static_cast<int>(side);
+}
+
+}  // namespace
+
+double max_zoom_inside(const Eigen::Ref<const Eigen::VectorXf>& image, int size) {
+  require(size > 2 && image.size() == 3L * size * size, "zoom: image is not 3 x " + std::to_string(size) + "^2");
+  const Eigen::Index plane = static_cast<Eigen::Index>(size) * size;
+  const double c = 0.5 * size;
+  double r = 0;  // farthest pixel edge of the object from the centre, in pixels (max norm)
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const Eigen::Index i = static_cast<Eigen::Index>(y) * size + x;
+      if (image[i] >= kNetBackground - kZoomInk && image[plane + i] >= kNetBackground - kZoomInk &&
+          image[2 * plane + i] >= kNetBackground - kZoomInk)
+        continue;
+      r = std::max({r, std::abs(x + 0.5 - c) + 0.5, std::abs(y + 0.5 - c) + 0.5});
+    }
+  return r > 0 ? (c - 1.0) / r : std::numeric_limits<double>::infinity();
+}
+
+Eigen::VectorXf zoom_image(const Eigen::Ref<const Eigen::VectorXf>& image, int size, double k) {
+  require(size > 2 && image.size() == 3L * size * size, "zoom: image is not 3 x " + std::to_string(size) + "^2");
+  require(std::isfinite(k) && k > 0, "zoom: the magnification must be positive");
+  const Eigen::Index plane = static_cast<Eigen::Index>(size) * size;
+  const double c = 0.5 * size;
+  Eigen::VectorXf out(image.size());
+  // Source value at continuous pixel coordinates (u, v) (pixel centres at integers), white outside the image.
+  const auto at = [&](const float* ch, int x, int y) -> float {
+    return (x < 0 || y < 0 || x >= size || y >= size) ? kNetBackground : ch[static_cast<Eigen::Index>(y) * size + x];
+  };
+  // Magnifying: one bilinear sample per pixel. Shrinking: 2 x 2 samples, as an area average would see.
+  static constexpr double kOne[1] = {0.0}, kTwo[2] = {-0.25, 0.25};
+  const std::vector<double> sub = k >= 1 ? std::vector<double>(kOne, kOne + 1) : std::vector<double>(kTwo, kTwo + 2);
+  const double weight = 1.0 / static_cast<double>(sub.size() * sub.size());
+  for (int ch = 0; ch < 3; ++ch) {
+    const float* src = image.data() + ch * plane;
+    float* dst = out.data() + ch * plane;
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x) {
+        double acc = 0;
+        for (const double oy : sub)
+          for (const double ox : sub) {
+            const double u = c + (x + 0.5 + ox - c) / k - 0.5, v = c + (y + 0.5 + oy - c) / k - 0.5;
+            const double fu = std::floor(u), fv = std::floor(v);
+            const int x0 = static_cast<int>(std::max(-2.0, std::min(fu, double(size) + 1)));
+            const int y0 = static_cast<int>(std::max(-2.0, std::min(fv, double(size) + 1)));
+            const double a = u - fu, b = v - fv;
+            acc += (1 - b) * ((1 - a) * at(src, x0, y0) + a * at(src, x0 + 1, y0)) +
+                   b * ((1 - a) * at(src, x0, y0 + 1) + a * at(src, x0 + 1, y0 + 1));
+          }
+        dst[static_cast<Eigen::Index>(y) * size + x] = static_cast<float>(weight * acc);
+      }
+  }
+  return out;
+}
+
+void zoom_images(MatrixXfR& images, std::vector<Camera>& cameras, const ZoomAugmentSettings& z, uint64_t seed,
+                 uint64_t stream, std::vector<double>* applied) {
+  require(z.prob >= 0 && z.prob <= 1, "zoom augmentation: the probability must be in [0, 1]");
+  require(std::isfinite(z.min) && std::isfinite(z.max) && z.min > 0 && z.min <= z.max,
+          "zoom augmentation: need 0 < min <= max");
+  require(cameras.size() == static_cast<size_t>(images.rows()),
+          "zoom augmentation: " + std::to_string(cameras.size()) + " cameras for " + std::to_string(images.rows()) +
+              " images");
+  if (applied) applied->assign(cameras.size(), 1.0);
+  if (!z.enabled() || images.rows() == 0) return;
+  const int S = square_side(images.cols(), "zoom augmentation");
+  tbb::parallel_for(Eigen::Index(0), images.rows(), [&](Eigen::Index b) {
+    Rng rng = Rng::derived(seed ^ 0x200a06e47ULL, stream + static_cast<uint64_t>(b));
+    double k = std::exp(rng.uniform(std::log(z.min), std::log(z.max)));
+    const bool zoom = rng.uniform() < z.prob;
+    if (!zoom) return;
+    const Eigen::VectorXf row = images.row(b).transpose();
+    k = std::min(k, max_zoom_inside(row, S));
+    images.row(b) = zoom_image(row, S, k).transpose();
+    Camera& cam = cameras[static_cast<size_t>(b)];
+    cam.t.z() /= k;
+    if (applied) (*applied)[static_cast<size_t>(b)] = k;
   });
 }
 

@@ -159,4 +159,36 @@ struct ImageAugmentSettings {
 /// Throws InvalidInput on settings out of range or on rows that are not 3 square channels.
 void augment_images(MatrixXfR& images, const ImageAugmentSettings& settings, uint64_t seed, uint64_t stream);
 
+/// Zoom augmentation for the pose estimator, so that it reads the camera distance from the object's size in the
+/// image (recon frames real inputs to the renders' median object size, whatever the photo's scale; the network
+/// must then answer with the distance that size implies).
+///   - With probability `prob` an image is magnified by k about its centre (log-uniform in [min, max]), resampled
+///     bilinearly (2 x 2 samples per pixel when shrinking), white outside the source. k is lowered when the magnified object would
+///     leave the image (its non-white pixels stay at least one pixel inside the border).
+///   - The camera follows by weak perspective: t.z becomes t.z / k. For the prepared views (look-at cameras, the
+///     object-frame origin at the image centre) this is exact for the origin and, for a unit-sphere object at
+///     distance 2.5, within about 6% for its farthest points: the intrinsics stay DISN's, as the network assumes.
+/// Image b draws from Rng::derived(seed, stream + b) only (k and the coin are always drawn, in that order).
+struct ZoomAugmentSettings {
+  double prob = 0;           ///< probability of zooming an image, [0, 1]
+  double min = 1, max = 1;   ///< range of the magnification k, 0 < min <= max
+
+  [[nodiscard]] bool enabled() const { return prob > 0; }
+  [[nodiscard]] Json to_json() const;
+};
+
+/// Zoom B x (3 * S * S) channels-first rows in place and their cameras with them (see ZoomAugmentSettings); the
+/// magnification applied to each image in `applied` when not null (1 = left as it was). Throws InvalidInput on
+/// settings out of range, rows that are not 3 square channels, or a camera count other than the row count.
+void zoom_images(MatrixXfR& images, std::vector<Camera>& cameras, const ZoomAugmentSettings& settings, uint64_t seed,
+                 uint64_t stream, std::vector<double>* applied = nullptr);
+
+/// One image (3 * S * S channels-first values, white background) magnified by k about its centre as
+/// zoom_images does, without the limit that keeps the object inside.
+Eigen::VectorXf zoom_image(const Eigen::Ref<const Eigen::VectorXf>& image, int size, double k);
+
+/// The largest magnification that keeps the image's non-white pixels (any channel below 1 - 0.05) at least one
+/// pixel inside its border; +infinity for an all-white image.
+double max_zoom_inside(const Eigen::Ref<const Eigen::VectorXf>& image, int size);
+
 }  // namespace sdfkit

@@ -116,6 +116,33 @@ void PoseNet::run(const MatrixXfR& images, bool training) {
   if (s_.azimuth_bins > 0) az_head_.forward(feat_, az_);
 }
 
+std::pair<double, double> distance_logit_remap(double a, double b, double a2, double b2) {
+  const double mid = 0.5 * (a + b);
+  require(b > a && b2 > a2 && mid > a2 && mid < b2,
+          "pose net: the middle of the distance range [" + std::to_string(a) + ", " + std::to_string(b) +
+              "] is not inside [" + std::to_string(a2) + ", " + std::to_string(b2) + "]");
+  const double s = (mid - a2) / (b2 - a2);  // sigmoid(beta)
+  const double beta = std::log(s / (1 - s));
+  const double alpha = 0.25 * (b - a) / ((b2 - a2) * s * (1 - s));
+  return {alpha, beta};
+}
+
+void PoseNet::adopt_parameters(const PoseNet& from) {
+  PoseNetSettings same = from.s_;
+  same.distance_min = s_.distance_min;
+  same.distance_max = s_.distance_max;
+  require(same.to_json() == s_.to_json(), "pose net: cannot adopt the parameters of another architecture (" +
+                                              from.s_.to_json().dump() + " vs " + s_.to_json().dump() + ")");
+  const auto [alpha, beta] = distance_logit_remap(from.s_.distance_min, from.s_.distance_max, s_.distance_min,
+                                                  s_.distance_max);
+  std::copy(from.store_.values.begin(), from.store_.values.end(), store_.values.begin());
+  // The distance head's last layer (32 -> 1: 32 weights, then the bias) becomes alpha x + beta.
+  const Layer<float>& last = dist_head_[dist_head_.size() - 1];
+  float* w = store_.values.data() + (last.params() - store_.values.data());
+  for (size_t i = 0; i + 1 < last.n_params(); ++i) w[i] = static_cast<float>(alpha * w[i]);
+  w[last.n_params() - 1] = static_cast<float>(alpha * w[last.n_params() - 1] + beta);
+}
+
 Camera PoseNet::camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z) const {
   Camera cam;
   cam.K = disn_intrinsics(s_.image_size, s_.image_size);

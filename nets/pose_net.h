@@ -103,6 +103,12 @@ class PoseNet {
   /// forward less the image gradient, which is not computed).
   [[nodiscard]] double train_step_flops(int batch) const;
 
+  /// Take the parameters of a network with the same settings except the distance range (`from`), re-expressing its
+  /// distance head in this network's range: the head's logit z becomes alpha z + beta (distance_logit_remap), so
+  /// that the predicted distance and its slope at the middle of `from`'s range are unchanged. Throws InvalidInput
+  /// when the settings differ otherwise or the middle of `from`'s range is outside this one.
+  void adopt_parameters(const PoseNet& from);
+
   /// Camera from the raw head outputs (6D rotation, distance logit).
   [[nodiscard]] Camera camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z) const;
 
@@ -126,6 +132,11 @@ double pose_point_loss(const Eigen::Matrix3d& R, double d, const PointsF& points
 double pose_point_loss_modulo(const Eigen::Matrix3d& R, double d, const PointsF& points, const Camera& truth,
                               const std::vector<Mat3>& symmetries, Eigen::Matrix3d* dR, double* dd,
                               int* twin = nullptr);
+
+/// (alpha, beta) such that d(z) = a + (b - a) sigmoid(z) and d'(alpha z + beta) = a2 + (b2 - a2) sigmoid(alpha z +
+/// beta) agree in value and first derivative at z = 0 (d = (a + b) / 2). Throws InvalidInput when (a + b) / 2 is
+/// not strictly inside (a2, b2).
+std::pair<double, double> distance_logit_remap(double a, double b, double a2, double b2);
 
 /// Azimuth of a camera centre (degrees in [0, 360), camera.h's convention: 0 at +z, 90 at +x).
 double camera_azimuth(const Camera& cam);

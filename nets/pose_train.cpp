@@ -32,7 +32,8 @@ Json settings_json(const PoseTrainSettings& s) {
           {"points", s.points},           {"lr", s.lr},         {"lr_min", s.lr_min},
           {"beta1", s.beta1},             {"weight_decay", s.weight_decay}, {"grad_clip", s.grad_clip},
           {"max_shapes", s.max_shapes},   {"seed", s.seed}, {"augment", s.augment.to_json()},
-          {"init", s.init}, {"azimuth_weight", s.azimuth_weight}, {"symmetries", s.symmetry_tag}};
+          {"init", s.init}, {"azimuth_weight", s.azimuth_weight}, {"symmetries", s.symmetry_tag},
+          {"zoom", s.zoom.to_json()}};
 }
 
 std::vector<PointsF> split_points(const SdfBatch& batch) {
@@ -219,11 +220,16 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   net.init(s.seed);
   if (!s.init.empty()) {
     const auto start = load_pose_model(s.init);
-    if (start->architecture() != net.architecture())
-      throw InvalidInput(s.init + ": --init model has another architecture than the network being trained (" +
-                         start->architecture().at("settings").dump() + " vs " + net.architecture().at("settings").dump() +
-                         ")");
-    std::copy(start->params().values.begin(), start->params().values.end(), net.params().values.begin());
+    if (start->architecture() == net.architecture()) {
+      std::copy(start->params().values.begin(), start->params().values.end(), net.params().values.begin());
+    } else {
+      try {
+        net.adopt_parameters(*start);  // another distance range only
+      } catch (const InvalidInput& e) {
+        throw InvalidInput(s.init + ": --init model has another architecture than the network being trained (" +
+                           e.what() + ")");
+      }
+    }
   }
   OptimizerSettings os;
   os.beta1 = s.beta1;
@@ -257,6 +263,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     if (stored.is_object() && !stored.contains("init") && s.init.empty()) expected.erase("init");
     if (stored.is_object() && !stored.contains("azimuth_weight") && s.azimuth_weight == 0) expected.erase("azimuth_weight");
     if (stored.is_object() && !stored.contains("symmetries") && s.symmetry_tag.empty()) expected.erase("symmetries");
+    if (stored.is_object() && !stored.contains("zoom") && !s.zoom.enabled()) expected.erase("zoom");
     require_header_match(ck, "settings", expected, state_path);
     const auto& p = ck.block("params", static_cast<long>(net.n_params()));
     std::copy(p.begin(), p.end(), net.params().values.begin());
@@ -287,6 +294,8 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   }
   auto load = [&sampler, &s, i0 = i0, i1 = i1](long at) {
     SdfBatch batch = sampler.batch(at, i0, i1);
+    const uint64_t stream = static_cast<uint64_t>(at) * static_cast<uint64_t>(s.batch) + i0;
+    zoom_images(batch.images, batch.cameras, s.zoom, s.seed, stream);
     augment_images(batch.images, s.augment, s.seed, static_cast<uint64_t>(at) * static_cast<uint64_t>(s.batch) + i0);
     return batch;
   };
@@ -371,6 +380,7 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
                          std::map<std::string, PoseScores>* per_category,
                          const std::function<void(long, long)>& progress) {
   require(es.points > 0 && es.batch > 0, "eval-pose: points and batch must be positive");
+  require(std::isfinite(es.zoom) && es.zoom > 0, "eval-pose: the zoom must be positive");
   std::vector<std::pair<int, int>> items;
   for (size_t s = 0; s < data.size(); ++s) {
     const int nv = es.views < 0 ? data.shape(s).num_views : std::min(es.views, data.shape(s).num_views);
@@ -417,6 +427,12 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
         images.row(static_cast<Eigen::Index>(k)) = network_image(data.image(s, v), S).transpose();
         pts.push_back(shape_points[s]);
         cams.push_back(data.camera(s, v));
+      }
+      if (es.zoom != 1) {
+        ZoomAugmentSettings z;
+        z.prob = 1;
+        z.min = z.max = es.zoom;
+        zoom_images(images, cams, z, es.seed, b0);
       }
       std::vector<PoseErrors> each;
       std::vector<double> losses;

@@ -5,6 +5,7 @@
 
 #include "core/json.h"
 #include "camera/pose_metrics.h"
+#include "core/json.h"
 #include "nets/dataset.h"
 #include "nets/optim.h"
 #include "nets/pose_net.h"
@@ -37,6 +38,9 @@ struct PoseTrainSettings {
   /// Photometric augmentation of the training images (the camera stays exact; nets/dataset.h). Off by default in
   /// the struct; `sdfkit train pose` sets its measured defaults.
   ImageAugmentSettings augment;
+  /// Zoom augmentation (nets/dataset.h): images magnified about their centre, the camera distance divided by the
+  /// magnification, so that the network reads the distance from the object's size. Applied before `augment`.
+  ZoomAugmentSettings zoom;
   /// Weight of the azimuth head's cross-entropy (net.azimuth_bins > 0 required when positive).
   double azimuth_weight = 0;
   /// The object-frame rotations that map a training shape onto itself (e.g. sdf/symmetry.h from its gt mesh),
@@ -46,8 +50,9 @@ struct PoseTrainSettings {
   std::function<std::vector<Mat3>(const ShapeEntry&)> symmetries;
   std::string symmetry_tag;
   uint64_t seed = 1;
-  /// Start from the parameters of this pose model (fine-tuning; same architecture required) instead of the seeded
-  /// initialisation. Ignored when a resumable state is found (--resume).
+  /// Start from the parameters of this pose model (fine-tuning) instead of the seeded initialisation: same
+  /// architecture, except that the distance range may differ (PoseNet::adopt_parameters re-expresses the distance
+  /// head). Ignored when a resumable state is found (--resume).
   std::string init;
   bool resume = false;
   double time_limit_seconds = 0;  ///< stop (and save) after this much wall time (0 = none)
@@ -104,6 +109,10 @@ struct PoseEvalSettings {
   /// The object-frame rotations that map a shape onto itself (e.g. sdf/symmetry.h from its gt mesh), called once
   /// per shape; when set, d3d_sym / d2d_sym score each estimate against the closest symmetric twin of the truth.
   std::function<std::vector<Mat3>(const ShapeEntry&)> symmetries;
+  /// Magnify every image by this factor about its centre and divide the true distance by it (zoom_images with
+  /// probability 1; lowered per image when the object would leave the frame): how well the network reads the
+  /// distance from the object's size. 1 = the views as rendered.
+  double zoom = 1;
 };
 PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettings& settings,
                          std::map<std::string, PoseScores>* per_category = nullptr,

@@ -275,3 +275,91 @@ TEST_CASE("augment_images noise has the requested standard deviation and zero me
   CHECK(mean == doctest::Approx(0.5).epsilon(2e-3));
   CHECK(sd == doctest::Approx(0.05).epsilon(0.03));
 }
+
+namespace {
+
+/// S x S white image with a centred dark square of side 2 h (pixels [c - h, c + h) in both axes, c = S / 2).
+Eigen::VectorXf centred_square(int S, int h) {
+  Eigen::VectorXf im = Eigen::VectorXf::Ones(3L * S * S);
+  const int c = S / 2;
+  for (int ch = 0; ch < 3; ++ch)
+    for (int y = c - h; y < c + h; ++y)
+      for (int x = c - h; x < c + h; ++x) im[(static_cast<Eigen::Index>(ch) * S + y) * S + x] = 0.2f;
+  return im;
+}
+
+}  // namespace
+
+TEST_CASE("zoom_image: a centred square grows and shrinks by the factor, white outside, limit keeps it inside") {
+  const int S = 40, c = 20;
+  const Eigen::VectorXf sq = centred_square(S, 5);  // pixels 15..24
+  // x2: pixels whose centre maps inside the square (|x + 0.5 - 20| / 2 < 5, i.e. 10..29) are dark.
+  const Eigen::VectorXf big = zoom_image(sq, S, 2.0);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      const float v = big[y * S + x];
+      const double r = std::max(std::abs(x + 0.5 - c), std::abs(y + 0.5 - c));
+      if (r < 9) CHECK(v == doctest::Approx(0.2f));
+      if (r > 10.5) CHECK(v == doctest::Approx(1.0f));
+    }
+  // x0.5: the square halves (pixels 18..21 dark), ink is conserved up to the 2 x 2 sampling of the edge.
+  const Eigen::VectorXf small = zoom_image(sq, S, 0.5);
+  CHECK(small[c * S + c] == doctest::Approx(0.2f));
+  CHECK(small[c * S + c + 4] == doctest::Approx(1.0f));
+  CHECK(small[5 * S + 5] == doctest::Approx(1.0f));
+  const double ink = (1.0 - sq.head(S * S).array()).sum(), ink_small = (1.0 - small.head(S * S).array()).sum();
+  CHECK(ink_small == doctest::Approx(ink / 4).epsilon(0.02));
+  // The limit: the object's far pixel edge is 5 px from the centre, so (20 - 1) / 5.
+  CHECK(max_zoom_inside(sq, S) == doctest::Approx(19.0 / 5.0));
+  CHECK(std::isinf(max_zoom_inside(Eigen::VectorXf::Ones(3 * S * S), S)));
+  CHECK_THROWS_AS(zoom_image(sq, S, 0.0), InvalidInput);
+}
+
+TEST_CASE("zoom_images: seeded and thread-independent, camera distance divided by the applied zoom") {
+  const int S = 21, B = 12;
+  MatrixXfR src(B, 3 * S * S);
+  for (int b = 0; b < B; ++b) src.row(b) = centred_square(S, 1 + b % 4).transpose();
+  std::vector<Camera> cams0;
+  for (int b = 0; b < B; ++b) cams0.push_back(look_at(30.0 * b, 25, 2.5 + 0.01 * b, S, S));
+  ZoomAugmentSettings z;
+  z.prob = 0.6;
+  z.min = 0.7;
+  z.max = 1.6;
+  MatrixXfR p = src, q = src;
+  std::vector<Camera> cp = cams0, cq = cams0;
+  std::vector<double> kp, kq;
+  zoom_images(p, cp, z, 5, 40, &kp);
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    zoom_images(q, cq, z, 5, 40, &kq);
+  }
+  CHECK((p.array() == q.array()).all());
+  CHECK(kp == kq);
+  int zoomed = 0;
+  for (int b = 0; b < B; ++b) {
+    const double k = kp[static_cast<size_t>(b)];
+    CHECK(cp[b].t.z() == doctest::Approx(cams0[b].t.z() / k));
+    CHECK((cp[b].R - cams0[b].R).norm() == 0.0);
+    if (k == 1.0) {
+      CHECK((p.row(b).array() == src.row(b).array()).all());
+      continue;
+    }
+    ++zoomed;
+    CHECK(k >= 0.7 - 1e-12);
+    CHECK(k <= std::min(1.6, max_zoom_inside(src.row(b).transpose(), S)) + 1e-12);
+    CHECK((p.row(b).transpose() - zoom_image(src.row(b).transpose(), S, k)).norm() == 0.0);
+  }
+  CHECK(zoomed > 0);
+  CHECK(zoomed < B);
+  // Off: nothing changes; bad settings and a camera count mismatch are refused.
+  ZoomAugmentSettings off;
+  MatrixXfR x = src;
+  std::vector<Camera> cx = cams0;
+  zoom_images(x, cx, off, 5, 0);
+  CHECK((x.array() == src.array()).all());
+  ZoomAugmentSettings bad = z;
+  bad.min = 2;
+  CHECK_THROWS_AS(zoom_images(x, cx, bad, 1, 0), InvalidInput);
+  cx.pop_back();
+  CHECK_THROWS_AS(zoom_images(x, cx, z, 1, 0), InvalidInput);
+}

@@ -358,3 +358,40 @@ TEST_CASE("pose net with an azimuth head: the flip check turns the camera, the m
   CHECK_FALSE(PoseNet(s, false).architecture().at("settings").contains("azimuth_bins"));
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("distance head remap: same distance and slope at the old range's middle, adopted by a wider network") {
+  const double a = 2.3, b = 3.15, a2 = 1.4, b2 = 4.4;
+  const auto [alpha, beta] = distance_logit_remap(a, b, a2, b2);
+  const auto sig = [](double z) { return 1.0 / (1.0 + std::exp(-z)); };
+  const auto d_old = [&](double z) { return a + (b - a) * sig(z); };
+  const auto d_new = [&](double z) { return a2 + (b2 - a2) * sig(alpha * z + beta); };
+  CHECK(d_new(0) == doctest::Approx(d_old(0)).epsilon(1e-12));
+  const double h = 1e-5;
+  CHECK((d_new(h) - d_new(-h)) / (2 * h) == doctest::Approx((d_old(h) - d_old(-h)) / (2 * h)).epsilon(1e-7));
+  CHECK_THROWS_AS(distance_logit_remap(a, b, 3.0, 4.0), InvalidInput);  // middle 2.725 outside
+
+  PoseNetSettings s;
+  s.width = 2;
+  s.image_size = 40;
+  s.feature = 16;
+  s.azimuth_bins = 8;
+  PoseNet from(s, false);
+  from.init(4);
+  PoseNetSettings wide = s;
+  wide.distance_min = a2;
+  wide.distance_max = b2;
+  PoseNet to(wide, false);
+  to.adopt_parameters(from);
+  MatrixXfR img = MatrixXfR::Random(4, 3 * 40 * 40).array() * 0.5f + 0.5f;
+  const PosePrediction p = from.predict(img), q = to.predict(img);
+  for (size_t i = 0; i < 4; ++i) {
+    CHECK((p.regressed[i].R - q.regressed[i].R).norm() < 1e-12);  // the rotation head is copied as it is
+    CHECK(p.azimuth_prob[i] == q.azimuth_prob[i]);
+    // Second-order agreement near the middle: a freshly initialised head's logits are small.
+    CHECK(q.regressed[i].t.z() == doctest::Approx(p.regressed[i].t.z()).epsilon(0.01));
+  }
+  PoseNetSettings other = wide;
+  other.feature = 8;
+  PoseNet mismatched(other, false);
+  CHECK_THROWS_AS(mismatched.adopt_parameters(from), InvalidInput);
+}

@@ -197,6 +197,36 @@ TEST_CASE("train pose --init starts from a given model and refuses another archi
   fs::remove_all(root);
 }
 
+TEST_CASE("train pose with zoomed views: recorded, changes the training, --init from another distance range") {
+  const fs::path root = make_pose_dataset();
+  PoseTrainSettings s = tiny_settings(root, (root / "narrow.ckpt").string());
+  train_pose(s);
+  PoseTrainSettings z = tiny_settings(root, (root / "zoom.ckpt").string());
+  z.net.distance_min = 1.4;
+  z.net.distance_max = 4.4;
+  z.zoom.prob = 1;
+  z.zoom.min = 0.8;
+  z.zoom.max = 1.5;
+  z.init = s.out;  // another distance range: the distance head is re-expressed, not refused
+  train_pose(z);
+  Json training;
+  const auto zoomed = load_pose_model(z.out, &training);
+  CHECK(zoomed->settings().distance_min == 1.4);
+  CHECK(training.at("settings").at("zoom").at("prob").get<double>() == 1.0);
+  CHECK(training.at("settings").at("zoom").at("max").get<double>() == 1.5);
+  // The same run without zoom trains to other parameters.
+  PoseTrainSettings nz = z;
+  nz.out = (root / "nozoom.ckpt").string();
+  nz.zoom = {};
+  train_pose(nz);
+  CHECK(model_params(nz.out) != model_params(z.out));
+  // A resume asking for another zoom is refused.
+  z.resume = true;
+  z.zoom.max = 1.6;
+  CHECK_THROWS_AS(train_pose(z), InvalidInput);
+  fs::remove_all(root);
+}
+
 TEST_CASE("train pose --resume accepts a state written before the augmentation and --init settings existed") {
   const fs::path root = make_pose_dataset();
   PoseTrainSettings s = tiny_settings(root, (root / "old.ckpt").string());
@@ -207,6 +237,7 @@ TEST_CASE("train pose --resume accepts a state written before the augmentation a
   Checkpoint ck = load_checkpoint(state);
   ck.header["settings"].erase("augment");
   ck.header["settings"].erase("init");
+  ck.header["settings"].erase("zoom");
   save_checkpoint(state, ck);
   s.resume = true;
   CHECK(train_pose(s).start_step == s.steps);  // the state was taken (a run from scratch would start at 0)
