@@ -40,7 +40,7 @@ bool have_models() {
 
 // Issue 8: recon of a shipped example reaches IoU > 0.5 against its GT with the shipped models (a check of the
 // model, not only of the code path), and the true camera is at least as good. Measured with the shipped models
-// (data/models/sdf.md, pose.md): 0.698 with the true camera, 0.692 with the estimated one. Both cameras are
+// (data/models/sdf.md, pose.md): 0.700 with the true camera, 0.673 with the estimated one. Both cameras are
 // asserted above 0.5.
 TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with the true camera, closed mesh") {
   REQUIRE_MESSAGE(have_models(), "the shipped models data/models/sdf.ckpt and pose.ckpt are missing");
