@@ -12,8 +12,6 @@
 
 #include <openvdb/io/File.h>
 #include <openvdb/tools/Interpolation.h>
-#include <openvdb/tools/MeshToVolume.h>
-#include <openvdb/tools/Morphology.h>
 #include <openvdb/tools/Prune.h>
 
 #include <tbb/blocked_range.h>
@@ -25,6 +23,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <numeric>
@@ -47,6 +46,23 @@ using openvdb::FloatGrid;
 using openvdb::FloatTree;
 using LeafT = FloatTree::LeafNodeType;
 
+// The stages of SparseSdf::from_mesh and their constants.
+
+/// Faces per task when the band triangles are prepared and binned to leaves.
+constexpr size_t kFacesPerChunk = 4096;
+/// A leaf scans its triangles voxel row by voxel row unless that costs more than this many triangle-voxel tests
+/// per voxel; then it makes one bounded BVH query per voxel (about 50 triangle tests each) instead.
+constexpr long kScanTestsPerVoxel = 48;
+/// Two voxels a voxel apart whose distances sum to more than h cannot have a surface point between them; the 2%
+/// absorbs the rounding of the stored float distances.
+constexpr double kNoSurfaceBetween = 1.02;
+/// Inside iff the inside measure (winding number, or 1/0 from the pseudo-normal) exceeds this.
+constexpr double kInsideThreshold = 0.5;
+/// A component's probes decide it only when every one is at least this far from kInsideThreshold and they agree.
+constexpr double kClearProbe = 0.25;
+/// Components of at most this many voxels or blocks are decided member by member.
+constexpr size_t kSmallComponent = 4;
+
 /// Components of items connected by "no surface between them" edges; for each, decide inside/outside by
 /// probing the winding number at a few members, falling back to every member when the probes disagree or
 /// are ambiguous (open meshes, where the w = 0.5 set is not tied to the surface).
@@ -57,14 +73,16 @@ long classify_components(UnionFind& uf, int32_t n, const std::vector<int32_t>& p
   long evaluations = 0;
   std::map<int32_t, std::vector<int32_t>> groups;  // root -> members in index order (deterministic)
   for (int32_t i = 0; i < n; ++i) groups[uf.find(i)].push_back(i);
-  for (auto& [root, members] : groups) {
+  for (const auto& group : groups) {
+    const int32_t root = group.first;
+    const std::vector<int32_t>& members = group.second;  // a named reference: lambdas may not capture bindings
     auto decide_all = [&] {
       for (int32_t m : members) {
         inside[m] = wn(position(m)) > threshold;
         ++evaluations;
       }
     };
-    if (members.size() <= 4) {
+    if (members.size() <= kSmallComponent) {
       decide_all();
       continue;
     }
@@ -74,7 +92,7 @@ long classify_components(UnionFind& uf, int32_t n, const std::vector<int32_t>& p
       const double w = wn(position(p));
       ++evaluations;
       const bool in = w > threshold;
-      if (std::abs(w - threshold) < 0.25) agreed = false;
+      if (std::abs(w - threshold) < kClearProbe) agreed = false;
       if (first) verdict = in;
       else if (in != verdict) agreed = false;
       first = false;
@@ -94,6 +112,420 @@ struct Progress {
     if (fn && !fn(f)) throw Error("cancelled");
   }
 };
+
+/// The grid under construction: voxel index i sits at (i - kGridIndexOffset) * h; the band holds every voxel within
+/// `width` of the surface, `background` (= width) beyond it.
+struct BandGrid {
+  double h = 0, width = 0;
+  float background = 0;
+  [[nodiscard]] Vec3 position(const Coord& c) const {
+    constexpr int32_t O = kGridIndexOffset;
+    return Vec3((c.x() - O) * h, (c.y() - O) * h, (c.z() - O) * h);
+  }
+  [[nodiscard]] Vec3 voxel_position(const LeafT& leaf, int32_t i) const {
+    return position(leaf.origin() + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i)));
+  }
+  /// Voxels a and b (neighbours) with these distances have no surface between them.
+  [[nodiscard]] float no_surface_sum() const { return static_cast<float>(h * kNoSurfaceBetween); }
+};
+
+using InsideMeasure = std::function<double(const Vec3&)>;
+
+/// Stage 1, the exact unsigned band, built per 8^3 leaf: every voxel closer than `width` to the surface has its
+/// closest triangle within `width`, so the triangle's bounding box grown by `width` contains the voxel. Triangles
+/// are binned to the leaves their grown boxes touch; each leaf then takes, per voxel, the minimum distance over its
+/// triangles (exact closest-point distances, order-independent: deterministic for any thread count). Returns the
+/// leaves holding at least one band voxel (others null), in leaf-key order.
+std::vector<std::unique_ptr<LeafT>> exact_band_leaves(const Mesh& mesh, const MeshDistance& exact, const BandGrid& g) {
+  constexpr int32_t O = kGridIndexOffset;
+  const double h = g.h, width = g.width;
+  const float background = g.background;
+  constexpr int32_t D = LeafT::DIM;
+  const auto nf = static_cast<size_t>(mesh.F.rows());
+  std::vector<BandTriangle> tris(nf);
+  std::vector<std::pair<Coord, Coord>> tri_box(nf);  ///< voxel index box of each grown bounding box
+  auto leaf_key = [](const Coord& c) {
+    // Leaf coordinates (voxel >> 3) in 21 bits each.
+    return (static_cast<uint64_t>((c.x() >> 3) + (1 << 20)) << 42) |
+           (static_cast<uint64_t>((c.y() >> 3) + (1 << 20)) << 21) | static_cast<uint64_t>((c.z() >> 3) + (1 << 20));
+  };
+  auto key_origin = [](uint64_t k) {
+    const auto part = [](uint64_t v) { return (static_cast<int32_t>(v & ((1u << 21) - 1)) - (1 << 20)) * 8; };
+    return Coord(part(k >> 42), part(k >> 21), part(k));
+  };
+  std::vector<std::vector<std::pair<uint64_t, int32_t>>> chunk_pairs((nf + kFacesPerChunk - 1) / kFacesPerChunk);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, chunk_pairs.size()), [&](const auto& r) {
+    for (size_t ch = r.begin(); ch != r.end(); ++ch) {
+      auto& out = chunk_pairs[ch];
+      for (size_t f = ch * kFacesPerChunk; f < std::min(nf, (ch + 1) * kFacesPerChunk); ++f) {
+        const auto fi = static_cast<Eigen::Index>(f);
+        const Vec3 a = mesh.V.row(mesh.F(fi, 0)), b = mesh.V.row(mesh.F(fi, 1)), c = mesh.V.row(mesh.F(fi, 2));
+        tris[f] = BandTriangle::make(a, b, c);
+        const Vec3 lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+        auto& t = tri_box[f];
+        for (int k = 0; k < 3; ++k) {
+          t.first[k] = static_cast<int32_t>(std::ceil((lo[k] - width) / h)) + O;
+          t.second[k] = static_cast<int32_t>(std::floor((hi[k] + width) / h)) + O;
+        }
+        for (int32_t x = t.first.x() & ~(D - 1); x <= t.second.x(); x += D)
+          for (int32_t y = t.first.y() & ~(D - 1); y <= t.second.y(); y += D)
+            for (int32_t z = t.first.z() & ~(D - 1); z <= t.second.z(); z += D)
+              out.emplace_back(leaf_key(Coord(x, y, z)), static_cast<int32_t>(f));
+      }
+    }
+  });
+  std::vector<std::pair<uint64_t, int32_t>> pairs;
+  for (auto& c : chunk_pairs) pairs.insert(pairs.end(), c.begin(), c.end());
+  chunk_pairs.clear();
+  std::sort(pairs.begin(), pairs.end());
+  std::vector<size_t> starts;
+  for (size_t i = 0; i < pairs.size(); ++i)
+    if (i == 0 || pairs[i].first != pairs[i - 1].first) starts.push_back(i);
+  starts.push_back(pairs.size());
+  const size_t nleaves = starts.size() - 1;
+  std::vector<std::unique_ptr<LeafT>> built(nleaves);
+  const double width2 = width * width;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nleaves, 8), [&](const auto& r) {
+    std::array<double, LeafT::SIZE> best;
+    std::vector<std::pair<double, int32_t>> order;
+    for (size_t li = r.begin(); li != r.end(); ++li) {
+      const Coord origin = key_origin(pairs[starts[li]].first);
+      best.fill(width2);
+      // Wide bands (or large triangles) make the per-triangle scan cost more than one bounded BVH query per
+      // voxel (~50 triangle tests); then query the BVH instead, each query started from the previous face.
+      long scan_cost = 0;
+      for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi) {
+        const auto& t = tri_box[static_cast<size_t>(pairs[pi].second)];
+        const Coord lo = Coord::maxComponent(t.first, origin);
+        const Coord hi = Coord::minComponent(t.second, origin.offsetBy(D - 1));
+        scan_cost += static_cast<long>(std::max(0, hi.x() - lo.x() + 1)) * std::max(0, hi.y() - lo.y() + 1) *
+                     std::max(0, hi.z() - lo.z() + 1);
+      }
+      if (scan_cost > kScanTestsPerVoxel * static_cast<long>(LeafT::SIZE)) {
+        int32_t hint = -1;
+        for (size_t i = 0; i < LeafT::SIZE; ++i) {
+          const Coord c = origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
+          const ClosestPoint cp = exact.closest(Vec3((c.x() - O) * h, (c.y() - O) * h, (c.z() - O) * h), width, hint);
+          if (cp.face >= 0) {
+            best[i] = cp.distance * cp.distance;
+            hint = cp.face;
+          }
+        }
+      } else {
+        // Nearest triangles first (distance to the leaf's centre): the voxels' best values then drop early
+        // and the later triangles' voxels mostly end at the first (plane) test. The minimum does not depend
+        // on the order.
+        const Vec3 centre((origin.x() + 0.5 * (D - 1) - O) * h, (origin.y() + 0.5 * (D - 1) - O) * h,
+                          (origin.z() + 0.5 * (D - 1) - O) * h);
+        order.clear();
+        for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi)
+          order.emplace_back(tris[static_cast<size_t>(pairs[pi].second)].squared_distance(centre), pairs[pi].second);
+        std::sort(order.begin(), order.end());
+        for (const auto& [unused, f] : order) {
+          const BandTriangle& t = tris[static_cast<size_t>(f)];
+          const auto& box = tri_box[static_cast<size_t>(f)];
+          const Coord lo = Coord::maxComponent(box.first, origin);
+          const Coord hi = Coord::minComponent(box.second, origin.offsetBy(D - 1));
+          const int32_t count = hi.z() - lo.z() + 1;
+          for (int32_t x = lo.x(); x <= hi.x(); ++x)
+            for (int32_t y = lo.y(); y <= hi.y(); ++y) {
+              const size_t i =
+                  static_cast<size_t>(((x - origin.x()) * D + (y - origin.y())) * D + (lo.z() - origin.z()));
+              t.row_min((x - O) * h, (y - O) * h, lo.z(), count, O, h, &best[i], width2);
+            }
+        }
+      }
+      bool any = false;
+      for (double b : best) any = any || b < width2;
+      if (!any) continue;
+      auto leaf = std::make_unique<LeafT>(origin, background, false);
+      for (size_t i = 0; i < LeafT::SIZE; ++i)
+        if (best[i] < width2) leaf->setValueOn(static_cast<openvdb::Index>(i), static_cast<float>(std::sqrt(best[i])));
+      built[li] = std::move(leaf);
+    }
+  });
+  return built;
+}
+
+/// Stage 2a, signs leaf by leaf for the leaves `which`: the components of voxels with no surface between them
+/// inside the leaf, each probed (classify_components). Robust where the w = 0.5 set is not tied to the surface
+/// (open meshes), at the price of probes in every leaf. Writes inside_all[leaf * 512 + voxel].
+void signs_per_leaf(const std::vector<LeafT*>& leaves, const std::vector<int32_t>& which, const BandGrid& g,
+                    const InsideMeasure& wn, std::vector<char>& inside_all, std::atomic<long>& evaluations) {
+  constexpr int32_t D = LeafT::DIM;
+  constexpr auto S = static_cast<int32_t>(LeafT::SIZE);
+  const float safe = g.no_surface_sum();
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, which.size(), 4), [&](const auto& range) {
+    UnionFind uf(LeafT::SIZE);
+    std::vector<int32_t> best(LeafT::SIZE);
+    std::vector<char> inside(LeafT::SIZE);
+    for (size_t wi = range.begin(); wi != range.end(); ++wi) {
+      const auto li = static_cast<size_t>(which[wi]);
+      const LeafT& leaf = *leaves[li];
+      uf.reset(LeafT::SIZE);
+      const float* v = leaf.buffer().data();
+      for (int32_t x = 0; x < D; ++x)
+        for (int32_t y = 0; y < D; ++y)
+          for (int32_t z = 0; z < D; ++z) {
+            const int32_t i = (x * D + y) * D + z;
+            if (z + 1 < D && v[i] + v[i + 1] > safe) uf.unite(i, i + 1);
+            if (y + 1 < D && v[i] + v[i + D] > safe) uf.unite(i, i + D);
+            if (x + 1 < D && v[i] + v[i + D * D] > safe) uf.unite(i, i + D * D);
+          }
+      // Preferred probe per component: the member farthest from the surface (most robust).
+      for (int32_t i = 0; i < S; ++i) best[i] = -1;
+      for (int32_t i = 0; i < S; ++i) {
+        const int32_t r = uf.find(i);
+        if (best[r] < 0 || v[i] > v[best[r]]) best[r] = i;
+      }
+      evaluations += classify_components(uf, S, best, [&](int32_t i) { return g.voxel_position(leaf, i); }, wn,
+                                         kInsideThreshold, inside);
+      std::copy(inside.begin(), inside.end(), inside_all.begin() + static_cast<std::ptrdiff_t>(li * S));
+    }
+  });
+}
+
+/// Stage 2b, signs of a band without boundary edges: across leaves, the same components over the whole band (voxel
+/// pairs across leaf faces joined by the same rule), a few probes per component. A component whose probes all
+/// agree clearly takes their verdict; small components take a decided neighbour's sign when no triangle lies
+/// between them (winding numbers) or their own probe; the leaves of undecided components are decided leaf by leaf
+/// (stage 2a). A closed shell's band then costs a handful of probes instead of a few per leaf.
+void signs_by_band_components(const std::vector<LeafT*>& leaves, const BandGrid& band, const InsideMeasure& wn,
+                              const MeshDistance& exact, bool winding, std::vector<char>& inside_all,
+                              std::atomic<long>& evaluations) {
+  constexpr int32_t D = LeafT::DIM;
+  constexpr auto S = static_cast<int32_t>(LeafT::SIZE);
+  const float safe = band.no_surface_sum();
+  const double threshold = kInsideThreshold;
+  const size_t nl = leaves.size();
+  auto voxel_position = [&band](const LeafT& leaf, int32_t i) { return band.voxel_position(leaf, i); };
+  // Union by smaller root: a set's root is its smallest index whatever the order of the unions.
+  UnionFind sets(nl * static_cast<size_t>(S));
+  auto find = [&sets](int32_t x) { return sets.find(x); };
+  auto unite = [&sets](int32_t a, int32_t b) { sets.unite(a, b); };
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 8), [&](const auto& range) {
+    for (size_t li = range.begin(); li != range.end(); ++li) {
+      const float* v = leaves[li]->buffer().data();
+      const auto base = static_cast<int32_t>(li * S);
+      for (int32_t x = 0; x < D; ++x)
+        for (int32_t y = 0; y < D; ++y)
+          for (int32_t z = 0; z < D; ++z) {
+            const int32_t i = (x * D + y) * D + z;
+            if (z + 1 < D && v[i] + v[i + 1] > safe) unite(base + i, base + i + 1);
+            if (y + 1 < D && v[i] + v[i + D] > safe) unite(base + i, base + i + D);
+            if (x + 1 < D && v[i] + v[i + D * D] > safe) unite(base + i, base + i + D * D);
+          }
+    }
+  });
+  std::unordered_map<uint64_t, int32_t> leaf_at;
+  leaf_at.reserve(nl * 2);
+  auto key = [](const Coord& c) {
+    return (static_cast<uint64_t>(static_cast<uint32_t>(c.x()) >> 3) << 42) ^
+           (static_cast<uint64_t>(static_cast<uint32_t>(c.y()) >> 3) << 21) ^
+           static_cast<uint64_t>(static_cast<uint32_t>(c.z()) >> 3);
+  };
+  for (size_t li = 0; li < nl; ++li) leaf_at[key(leaves[li]->origin())] = static_cast<int32_t>(li);
+  for (size_t li = 0; li < nl; ++li) {
+    const float* v = leaves[li]->buffer().data();
+    for (int a = 0; a < 3; ++a) {
+      Coord no = leaves[li]->origin();
+      no[a] += D;
+      const auto it = leaf_at.find(key(no));
+      if (it == leaf_at.end() || leaves[static_cast<size_t>(it->second)]->origin() != no) continue;
+      const float* w = leaves[static_cast<size_t>(it->second)]->buffer().data();
+      const auto base = static_cast<int32_t>(li * S), nbase = it->second * S;
+      const int32_t stride = a == 0 ? D * D : a == 1 ? D : 1;
+      for (int32_t u = 0; u < D; ++u)
+        for (int32_t t = 0; t < D; ++t) {
+          // Voxel with coordinate a = D - 1 here, 0 in the neighbour; the other two coordinates (u, t).
+          const int32_t j = a == 0 ? u * D + t : a == 1 ? u * D * D + t : (u * D + t) * D;
+          const int32_t i = j + (D - 1) * stride;
+          if (v[i] + w[j] > safe) unite(base + i, nbase + j);
+        }
+    }
+  }
+  const auto n = static_cast<int32_t>(sets.size());
+  // Components in order of their smallest voxel index; members listed in index order.
+  std::vector<int32_t> comp(sets.size());
+  std::vector<int32_t> starts;
+  for (int32_t i = 0; i < n; ++i) {
+    const int32_t r = find(i);
+    if (r == i) {
+      comp[i] = static_cast<int32_t>(starts.size());
+      starts.push_back(0);
+    } else {
+      comp[i] = comp[r];
+    }
+    ++starts[comp[i]];
+  }
+  const auto nc = static_cast<int32_t>(starts.size());
+  {
+    int32_t total = 0;
+    for (auto& c : starts) total += std::exchange(c, total);
+    starts.push_back(total);
+  }
+  std::vector<int32_t> members(sets.size());
+  {
+    std::vector<int32_t> fill(starts.begin(), starts.end() - 1);
+    for (int32_t i = 0; i < n; ++i) members[fill[comp[i]]++] = i;
+  }
+  sets = UnionFind();  // free the per-voxel table before the probes
+  std::vector<char> undecided(static_cast<size_t>(nc), 0);
+  auto position = [&](int32_t g) { return voxel_position(*leaves[static_cast<size_t>(g / S)], g % S); };
+  auto value = [&](int32_t g) { return leaves[static_cast<size_t>(g / S)]->buffer().data()[g % S]; };
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, nc, 16), [&](const auto& range) {
+    long local = 0;
+    for (int32_t c = range.begin(); c != range.end(); ++c) {
+      const int32_t* m = members.data() + starts[c];
+      const int32_t count = starts[c + 1] - starts[c];
+      if (count <= static_cast<int32_t>(kSmallComponent)) continue;  // below, once the large components are decided
+      int32_t far = m[0];
+      for (int32_t k = 1; k < count; ++k)
+        if (value(m[k]) > value(far)) far = m[k];
+      const int32_t probes[6] = {far, m[0], m[count / 4], m[count / 2], m[3 * count / 4], m[count - 1]};
+      bool agreed = true, verdict = false;
+      for (int k = 0; k < 6 && agreed; ++k) {
+        const double w = wn(position(probes[k]));
+        ++local;
+        const bool in = w > threshold;
+        if (std::abs(w - threshold) < kClearProbe || (k > 0 && in != verdict)) agreed = false;
+        verdict = in;
+      }
+      if (!agreed) {
+        undecided[static_cast<size_t>(c)] = 1;
+        continue;
+      }
+      for (int32_t k = 0; k < count; ++k) inside_all[static_cast<size_t>(m[k])] = verdict;
+    }
+    evaluations += local;
+  });
+  // Small components (voxels within about half a voxel of the surface, cut off from their neighbours by the
+  // distance rule): with winding numbers, a member takes the sign of a neighbour voxel of a decided large
+  // component when no triangle lies on the segment between them (the grid's neighbour with the largest
+  // distance first); else, and always with pseudo-normals (whose probe is one closest-point query), its own
+  // probe.
+  auto decided = [&](int32_t g) {
+    const int32_t c = comp[static_cast<size_t>(g)];
+    return starts[c + 1] - starts[c] > static_cast<int32_t>(kSmallComponent) && !undecided[static_cast<size_t>(c)];
+  };
+  auto neighbour = [&](int32_t g, int a, int dir) -> int32_t {
+    const auto li = static_cast<size_t>(g / S);
+    const int32_t i = g % S;
+    Coord local = LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
+    local[a] += dir;
+    if (local[a] >= 0 && local[a] < D) return static_cast<int32_t>(li * S) + static_cast<int32_t>(LeafT::coordToOffset(local));
+    Coord no = leaves[li]->origin();
+    no[a] += dir * D;
+    const auto it = leaf_at.find(key(no));
+    if (it == leaf_at.end() || leaves[static_cast<size_t>(it->second)]->origin() != no) return -1;
+    local[a] = (local[a] + D) % D;
+    return it->second * S + static_cast<int32_t>(LeafT::coordToOffset(local));
+  };
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, nc, 64), [&](const auto& range) {
+    long local = 0;
+    for (int32_t c = range.begin(); c != range.end(); ++c) {
+      const int32_t count = starts[c + 1] - starts[c];
+      if (count > static_cast<int32_t>(kSmallComponent)) continue;
+      for (int32_t k = starts[c]; k < starts[c + 1]; ++k) {
+        const int32_t g = members[static_cast<size_t>(k)];
+        const Vec3 p = position(g);
+        int32_t from = -1;
+        if (winding) {
+          std::array<std::pair<float, int32_t>, 6> cand;
+          int nc6 = 0;
+          for (int a = 0; a < 3; ++a)
+            for (int dir : {-1, 1}) {
+              const int32_t j = neighbour(g, a, dir);
+              if (j >= 0 && decided(j)) cand[static_cast<size_t>(nc6++)] = {-value(j), j};
+            }
+          // Insertion sort of at most 6 (std::sort here trips GCC 12's -Warray-bounds on its dead >16 branch).
+          for (int q = 1; q < nc6; ++q)
+            for (int r = q; r > 0 && cand[static_cast<size_t>(r)] < cand[static_cast<size_t>(r - 1)]; --r)
+              std::swap(cand[static_cast<size_t>(r)], cand[static_cast<size_t>(r - 1)]);
+          for (int q = 0; q < nc6 && from < 0; ++q)
+            if (!exact.segment_may_cross(p, position(cand[static_cast<size_t>(q)].second)))
+              from = cand[static_cast<size_t>(q)].second;
+        }
+        if (from >= 0) {
+          inside_all[static_cast<size_t>(g)] = inside_all[static_cast<size_t>(from)];
+        } else {
+          inside_all[static_cast<size_t>(g)] = wn(p) > threshold;
+          ++local;
+        }
+      }
+    }
+    evaluations += local;
+  });
+  std::vector<char> redo(nl, 0);
+  for (int32_t c = 0; c < nc; ++c)
+    if (undecided[static_cast<size_t>(c)])
+      for (int32_t k = starts[c]; k < starts[c + 1]; ++k) redo[static_cast<size_t>(members[k] / S)] = 1;
+  std::vector<int32_t> which;
+  for (size_t li = 0; li < nl; ++li)
+    if (redo[li]) which.push_back(static_cast<int32_t>(li));
+  signs_per_leaf(leaves, which, band, wn, inside_all, evaluations);
+}
+
+/// Stage 4, beyond the band: the 8^3 blocks of the leaves' bounding box that hold no leaf. Blocks connected face to
+/// face share a sign (the band separates inside from outside for closed surfaces); one probe set per component
+/// (classify_components). Inside blocks become -background tiles. Returns the number of inside tiles.
+long fill_inside_tiles(FloatTree& tree, const std::vector<LeafT*>& leaves, const BandGrid& g, const InsideMeasure& wn,
+                       std::atomic<long>& evaluations) {
+  constexpr int32_t D = LeafT::DIM;
+  constexpr int32_t O = kGridIndexOffset;
+  const double h = g.h, threshold = kInsideThreshold;
+  const float background = g.background;
+  long tiles = 0;
+  openvdb::CoordBBox lb;
+  for (const LeafT* leaf : leaves) lb.expand(leaf->origin());
+  if (!leaves.empty()) {
+    const Coord lo = lb.min(), hi = lb.max();
+    const int32_t nx = (hi.x() - lo.x()) / D + 1, ny = (hi.y() - lo.y()) / D + 1, nz = (hi.z() - lo.z()) / D + 1;
+    const auto nb = static_cast<size_t>(nx) * ny * nz;
+    std::vector<char> has_leaf(nb, 0);
+    auto block_index = [&](const Coord& o) {
+      return (static_cast<size_t>((o.x() - lo.x()) / D) * ny + (o.y() - lo.y()) / D) * nz + (o.z() - lo.z()) / D;
+    };
+    for (const LeafT* leaf : leaves) has_leaf[block_index(leaf->origin())] = 1;
+    std::vector<int32_t> empty_blocks;  // block index per item
+    std::vector<int32_t> item_of(nb, -1);
+    for (size_t b = 0; b < nb; ++b)
+      if (!has_leaf[b]) {
+        item_of[b] = static_cast<int32_t>(empty_blocks.size());
+        empty_blocks.push_back(static_cast<int32_t>(b));
+      }
+    const auto n = static_cast<int32_t>(empty_blocks.size());
+    UnionFind uf(static_cast<size_t>(n));
+    for (int32_t bx = 0; bx < nx; ++bx)
+      for (int32_t by = 0; by < ny; ++by)
+        for (int32_t bz = 0; bz < nz; ++bz) {
+          const size_t b = (static_cast<size_t>(bx) * ny + by) * nz + bz;
+          if (has_leaf[b]) continue;
+          if (bz + 1 < nz && !has_leaf[b + 1]) uf.unite(item_of[b], item_of[b + 1]);
+          if (by + 1 < ny && !has_leaf[b + nz]) uf.unite(item_of[b], item_of[b + nz]);
+          if (bx + 1 < nx && !has_leaf[b + static_cast<size_t>(ny) * nz])
+            uf.unite(item_of[b], item_of[b + static_cast<size_t>(ny) * nz]);
+        }
+    std::vector<int32_t> first(static_cast<size_t>(n));
+    for (int32_t i = 0; i < n; ++i) first[i] = uf.find(i);
+    auto block_center = [&](int32_t i) {
+      const int32_t b = empty_blocks[i];
+      const int32_t bz = b % nz, by = (b / nz) % ny, bx = b / (nz * ny);
+      return Vec3((lo.x() - O + bx * D + 0.5 * (D - 1)) * h, (lo.y() - O + by * D + 0.5 * (D - 1)) * h,
+                  (lo.z() - O + bz * D + 0.5 * (D - 1)) * h);
+    };
+    std::vector<char> inside(static_cast<size_t>(n), 0);
+    evaluations += classify_components(uf, n, first, block_center, wn, threshold, inside);
+    for (int32_t i = 0; i < n; ++i) {
+      if (!inside[i]) continue;
+      const int32_t b = empty_blocks[i];
+      const int32_t bz = b % nz, by = (b / nz) % ny, bx = b / (nz * ny);
+      tree.addTile(1, Coord(lo.x() + bx * D, lo.y() + by * D, lo.z() + bz * D), -background, false);
+      ++tiles;
+    }
+  }
+  return tiles;
+}
 
 /// Replace the random UUID OpenVDB writes into a file header with one derived from the content.
 void make_uuid_deterministic(std::string& bytes) {
@@ -198,135 +630,29 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
     clock = now;
   };
   const Mesh& mesh = queries.mesh();
-  const double h = s.voxel_size;
   const SignMethod method = queries.sign();
   st.sign = method;
   lap(st.seconds_setup);
   progress(0.05);
 
-  // Exact band, built per 8^3 leaf: every voxel closer than `width` to the surface has its closest triangle
-  // within `width`, so the triangle's bounding box grown by `width` contains the voxel. Triangles are binned to
-  // the leaves their grown boxes touch; each leaf then takes, per voxel, the minimum distance over its
-  // triangles (exact closest-point distances, order-independent: deterministic for any thread count).
-  const double width = s.band > 0 ? std::ceil(s.band / h) * h : 3.0 * h;
-  const auto background = static_cast<float>(width);
-  const auto xform = openvdb::math::Transform::createLinearTransform(h);
+  BandGrid g;
+  g.h = s.voxel_size;
+  g.width = s.band > 0 ? std::ceil(s.band / g.h) * g.h : 3.0 * g.h;
+  g.background = static_cast<float>(g.width);
+  const auto xform = openvdb::math::Transform::createLinearTransform(g.h);
   constexpr int32_t O = kGridIndexOffset;  // index i sits at (i - O) * h
-  xform->postTranslate(openvdb::Vec3d(-O * h, -O * h, -O * h));
-  FloatGrid::Ptr grid = FloatGrid::create(background);
+  xform->postTranslate(openvdb::Vec3d(-O * g.h, -O * g.h, -O * g.h));
+  FloatGrid::Ptr grid = FloatGrid::create(g.background);
   grid->setTransform(xform);
   grid->setName("sdf");
   FloatTree& tree = grid->tree();
   const MeshDistance& exact = queries.distance();
-  {
-    constexpr int32_t D = LeafT::DIM;
-    const auto nf = static_cast<size_t>(mesh.F.rows());
-    std::vector<BandTriangle> tris(nf);
-    std::vector<std::pair<Coord, Coord>> tri_box(nf);  ///< voxel index box of each grown bounding box
-    auto leaf_key = [](const Coord& c) {
-      // Leaf coordinates (voxel >> 3) in 21 bits each.
-      return (static_cast<uint64_t>((c.x() >> 3) + (1 << 20)) << 42) |
-             (static_cast<uint64_t>((c.y() >> 3) + (1 << 20)) << 21) | static_cast<uint64_t>((c.z() >> 3) + (1 << 20));
-    };
-    auto key_origin = [](uint64_t k) {
-      const auto part = [](uint64_t v) { return (static_cast<int32_t>(v & ((1u << 21) - 1)) - (1 << 20)) * 8; };
-      return Coord(part(k >> 42), part(k >> 21), part(k));
-    };
-    std::vector<std::vector<std::pair<uint64_t, int32_t>>> chunk_pairs((nf + 4095) / 4096);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunk_pairs.size()), [&](const auto& r) {
-      for (size_t ch = r.begin(); ch != r.end(); ++ch) {
-        auto& out = chunk_pairs[ch];
-        for (size_t f = ch * 4096; f < std::min(nf, (ch + 1) * 4096); ++f) {
-          const auto fi = static_cast<Eigen::Index>(f);
-          const Vec3 a = mesh.V.row(mesh.F(fi, 0)), b = mesh.V.row(mesh.F(fi, 1)), c = mesh.V.row(mesh.F(fi, 2));
-          tris[f] = BandTriangle::make(a, b, c);
-          const Vec3 lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
-          auto& t = tri_box[f];
-          for (int k = 0; k < 3; ++k) {
-            t.first[k] = static_cast<int32_t>(std::ceil((lo[k] - width) / h)) + O;
-            t.second[k] = static_cast<int32_t>(std::floor((hi[k] + width) / h)) + O;
-          }
-          for (int32_t x = t.first.x() & ~(D - 1); x <= t.second.x(); x += D)
-            for (int32_t y = t.first.y() & ~(D - 1); y <= t.second.y(); y += D)
-              for (int32_t z = t.first.z() & ~(D - 1); z <= t.second.z(); z += D)
-                out.emplace_back(leaf_key(Coord(x, y, z)), static_cast<int32_t>(f));
-        }
-      }
-    });
-    std::vector<std::pair<uint64_t, int32_t>> pairs;
-    for (auto& c : chunk_pairs) pairs.insert(pairs.end(), c.begin(), c.end());
-    chunk_pairs.clear();
-    std::sort(pairs.begin(), pairs.end());
-    std::vector<size_t> starts;
-    for (size_t i = 0; i < pairs.size(); ++i)
-      if (i == 0 || pairs[i].first != pairs[i - 1].first) starts.push_back(i);
-    starts.push_back(pairs.size());
-    const size_t nleaves = starts.size() - 1;
-    std::vector<std::unique_ptr<LeafT>> built(nleaves);
-    const double width2 = width * width;
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nleaves, 8), [&](const auto& r) {
-      std::array<double, LeafT::SIZE> best;
-      std::vector<std::pair<double, int32_t>> order;
-      for (size_t li = r.begin(); li != r.end(); ++li) {
-        const Coord origin = key_origin(pairs[starts[li]].first);
-        best.fill(width2);
-        // Wide bands (or large triangles) make the per-triangle scan cost more than one bounded BVH query per
-        // voxel (~50 triangle tests); then query the BVH instead, each query started from the previous face.
-        long scan_cost = 0;
-        for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi) {
-          const auto& t = tri_box[static_cast<size_t>(pairs[pi].second)];
-          const Coord lo = Coord::maxComponent(t.first, origin);
-          const Coord hi = Coord::minComponent(t.second, origin.offsetBy(D - 1));
-          scan_cost += static_cast<long>(std::max(0, hi.x() - lo.x() + 1)) * std::max(0, hi.y() - lo.y() + 1) *
-                       std::max(0, hi.z() - lo.z() + 1);
-        }
-        if (scan_cost > 48L * static_cast<long>(LeafT::SIZE)) {
-          int32_t hint = -1;
-          for (size_t i = 0; i < LeafT::SIZE; ++i) {
-            const Coord c = origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
-            const ClosestPoint cp = exact.closest(Vec3((c.x() - O) * h, (c.y() - O) * h, (c.z() - O) * h), width, hint);
-            if (cp.face >= 0) {
-              best[i] = cp.distance * cp.distance;
-              hint = cp.face;
-            }
-          }
-        } else {
-          // Nearest triangles first (distance to the leaf's centre): the voxels' best values then drop early
-          // and the later triangles' voxels mostly end at the first (plane) test. The minimum does not depend
-          // on the order.
-          const Vec3 centre((origin.x() + 0.5 * (D - 1) - O) * h, (origin.y() + 0.5 * (D - 1) - O) * h,
-                            (origin.z() + 0.5 * (D - 1) - O) * h);
-          order.clear();
-          for (size_t pi = starts[li]; pi < starts[li + 1]; ++pi)
-            order.emplace_back(tris[static_cast<size_t>(pairs[pi].second)].squared_distance(centre), pairs[pi].second);
-          std::sort(order.begin(), order.end());
-          for (const auto& [unused, f] : order) {
-            const BandTriangle& t = tris[static_cast<size_t>(f)];
-            const auto& box = tri_box[static_cast<size_t>(f)];
-            const Coord lo = Coord::maxComponent(box.first, origin);
-            const Coord hi = Coord::minComponent(box.second, origin.offsetBy(D - 1));
-            const int32_t count = hi.z() - lo.z() + 1;
-            for (int32_t x = lo.x(); x <= hi.x(); ++x)
-              for (int32_t y = lo.y(); y <= hi.y(); ++y) {
-                const size_t i =
-                    static_cast<size_t>(((x - origin.x()) * D + (y - origin.y())) * D + (lo.z() - origin.z()));
-                t.row_min((x - O) * h, (y - O) * h, lo.z(), count, O, h, &best[i], width2);
-              }
-          }
-        }
-        bool any = false;
-        for (double b : best) any = any || b < width2;
-        if (!any) continue;
-        auto leaf = std::make_unique<LeafT>(origin, background, false);
-        for (size_t i = 0; i < LeafT::SIZE; ++i)
-          if (best[i] < width2) leaf->setValueOn(static_cast<openvdb::Index>(i), static_cast<float>(std::sqrt(best[i])));
-        built[li] = std::move(leaf);
-      }
-    });
-    lap(st.seconds_topology);
-    for (auto& leaf : built)
-      if (leaf) tree.addLeaf(leaf.release());
-  }
+
+  // 1. The exact unsigned band.
+  std::vector<std::unique_ptr<LeafT>> built = exact_band_leaves(mesh, exact, g);
+  lap(st.seconds_topology);
+  for (auto& leaf : built)
+    if (leaf) tree.addLeaf(leaf.release());
   lap(st.seconds_exact);
   progress(0.5);
 
@@ -334,297 +660,38 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
     // Inside measure: the winding number, or 1/0 from the pseudo-normal at the closest feature (closed meshes).
     const PseudoNormals* normals = queries.pseudo_normals();
     const WindingNumber* winding = normals ? nullptr : &queries.winding();
-    const auto wn = [&](const Vec3& p) -> double {
+    const InsideMeasure wn = [&](const Vec3& p) -> double {
       if (winding) return (*winding)(p);
       const ClosestPoint cp = exact.closest(p);
       return cp.face >= 0 && normals->inside(p, cp) ? 1.0 : 0.0;
     };
-    const double threshold = 0.5;
     std::vector<LeafT*> leaves;
     leaves.reserve(tree.leafCount());
     tree.getNodes(leaves);
-    // Two voxels a voxel apart whose distances sum to more than h cannot have a surface point between them.
-    const float safe = static_cast<float>(h * 1.02);
     std::atomic<long> evaluations{0};
-    constexpr int32_t D = LeafT::DIM;
-    constexpr auto S = static_cast<int32_t>(LeafT::SIZE);
-    const size_t nl = leaves.size();
-    auto voxel_position = [&](const LeafT& leaf, int32_t i) {
-      const Coord c = leaf.origin() + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
-      return Vec3((c.x() - O) * h, (c.y() - O) * h, (c.z() - O) * h);
-    };
-    // The sign of every voxel of a set of leaves decided leaf by leaf: components of voxels with no surface
-    // between them inside the leaf, each probed (classify_components). Robust where the w = 0.5 set is not tied
-    // to the surface (open meshes), at the price of probes in every leaf.
-    std::vector<char> inside_all(nl * static_cast<size_t>(S), 0);
-    auto per_leaf = [&](const std::vector<int32_t>& which) {
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, which.size(), 4), [&](const auto& range) {
-        UnionFind uf(LeafT::SIZE);
-        std::vector<int32_t> best(LeafT::SIZE);
-        std::vector<char> inside(LeafT::SIZE);
-        for (size_t wi = range.begin(); wi != range.end(); ++wi) {
-          const auto li = static_cast<size_t>(which[wi]);
-          const LeafT& leaf = *leaves[li];
-          uf.reset(LeafT::SIZE);
-          const float* v = leaf.buffer().data();
-          for (int32_t x = 0; x < D; ++x)
-            for (int32_t y = 0; y < D; ++y)
-              for (int32_t z = 0; z < D; ++z) {
-                const int32_t i = (x * D + y) * D + z;
-                if (z + 1 < D && v[i] + v[i + 1] > safe) uf.unite(i, i + 1);
-                if (y + 1 < D && v[i] + v[i + D] > safe) uf.unite(i, i + D);
-                if (x + 1 < D && v[i] + v[i + D * D] > safe) uf.unite(i, i + D * D);
-              }
-          // Preferred probe per component: the member farthest from the surface (most robust).
-          for (int32_t i = 0; i < S; ++i) best[i] = -1;
-          for (int32_t i = 0; i < S; ++i) {
-            const int32_t r = uf.find(i);
-            if (best[r] < 0 || v[i] > v[best[r]]) best[r] = i;
-          }
-          evaluations += classify_components(uf, S, best, [&](int32_t i) { return voxel_position(leaf, i); }, wn,
-                                             threshold, inside);
-          std::copy(inside.begin(), inside.end(), inside_all.begin() + static_cast<std::ptrdiff_t>(li * S));
-        }
-      });
-    };
-    // Open meshes (boundary edges): w is not an integer off the surface and may cross 0.5 anywhere, so every
-    // leaf is decided on its own (below).
+    constexpr auto S = static_cast<size_t>(LeafT::SIZE);
+    std::vector<char> inside_all(leaves.size() * S, 0);
+    // 2. The band's signs. Open meshes (boundary edges): w is not an integer off the surface and may cross 0.5
+    //    anywhere, so every leaf is decided on its own.
     if (!queries.boundary_free()) {
-      std::vector<int32_t> all(nl);
+      std::vector<int32_t> all(leaves.size());
       std::iota(all.begin(), all.end(), 0);
-      per_leaf(all);
-    } else
-    // Closed parts: across leaves, the same components over the whole band (voxel pairs across leaf faces
-    // joined by the same rule), a few probes per component. A component whose probes all agree clearly (|w - 0.5| >= 0.25)
-    // takes their verdict; the leaves of any other component are decided leaf by leaf as above. A closed
-    // shell's band then costs a handful of probes instead of a few per leaf.
-    {
-      // Union by smaller root: a set's root is its smallest index whatever the order of the unions.
-      UnionFind sets(nl * static_cast<size_t>(S));
-      auto find = [&sets](int32_t x) { return sets.find(x); };
-      auto unite = [&sets](int32_t a, int32_t b) { sets.unite(a, b); };
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 8), [&](const auto& range) {
-        for (size_t li = range.begin(); li != range.end(); ++li) {
-          const float* v = leaves[li]->buffer().data();
-          const auto base = static_cast<int32_t>(li * S);
-          for (int32_t x = 0; x < D; ++x)
-            for (int32_t y = 0; y < D; ++y)
-              for (int32_t z = 0; z < D; ++z) {
-                const int32_t i = (x * D + y) * D + z;
-                if (z + 1 < D && v[i] + v[i + 1] > safe) unite(base + i, base + i + 1);
-                if (y + 1 < D && v[i] + v[i + D] > safe) unite(base + i, base + i + D);
-                if (x + 1 < D && v[i] + v[i + D * D] > safe) unite(base + i, base + i + D * D);
-              }
-        }
-      });
-      std::unordered_map<uint64_t, int32_t> leaf_at;
-      leaf_at.reserve(nl * 2);
-      auto key = [](const Coord& c) {
-        return (static_cast<uint64_t>(static_cast<uint32_t>(c.x()) >> 3) << 42) ^
-               (static_cast<uint64_t>(static_cast<uint32_t>(c.y()) >> 3) << 21) ^
-               static_cast<uint64_t>(static_cast<uint32_t>(c.z()) >> 3);
-      };
-      for (size_t li = 0; li < nl; ++li) leaf_at[key(leaves[li]->origin())] = static_cast<int32_t>(li);
-      for (size_t li = 0; li < nl; ++li) {
-        const float* v = leaves[li]->buffer().data();
-        for (int a = 0; a < 3; ++a) {
-          Coord no = leaves[li]->origin();
-          no[a] += D;
-          const auto it = leaf_at.find(key(no));
-          if (it == leaf_at.end() || leaves[static_cast<size_t>(it->second)]->origin() != no) continue;
-          const float* w = leaves[static_cast<size_t>(it->second)]->buffer().data();
-          const auto base = static_cast<int32_t>(li * S), nbase = it->second * S;
-          const int32_t stride = a == 0 ? D * D : a == 1 ? D : 1;
-          for (int32_t u = 0; u < D; ++u)
-            for (int32_t t = 0; t < D; ++t) {
-              // Voxel with coordinate a = D - 1 here, 0 in the neighbour; the other two coordinates (u, t).
-              const int32_t j = a == 0 ? u * D + t : a == 1 ? u * D * D + t : (u * D + t) * D;
-              const int32_t i = j + (D - 1) * stride;
-              if (v[i] + w[j] > safe) unite(base + i, nbase + j);
-            }
-        }
-      }
-      const auto n = static_cast<int32_t>(sets.size());
-      // Components in order of their smallest voxel index; members listed in index order.
-      std::vector<int32_t> comp(sets.size());
-      std::vector<int32_t> starts;
-      for (int32_t i = 0; i < n; ++i) {
-        const int32_t r = find(i);
-        if (r == i) {
-          comp[i] = static_cast<int32_t>(starts.size());
-          starts.push_back(0);
-        } else {
-          comp[i] = comp[r];
-        }
-        ++starts[comp[i]];
-      }
-      const auto nc = static_cast<int32_t>(starts.size());
-      {
-        int32_t total = 0;
-        for (auto& c : starts) total += std::exchange(c, total);
-        starts.push_back(total);
-      }
-      std::vector<int32_t> members(sets.size());
-      {
-        std::vector<int32_t> fill(starts.begin(), starts.end() - 1);
-        for (int32_t i = 0; i < n; ++i) members[fill[comp[i]]++] = i;
-      }
-      sets = UnionFind();  // free the per-voxel table before the probes
-      std::vector<char> undecided(static_cast<size_t>(nc), 0);
-      auto position = [&](int32_t g) { return voxel_position(*leaves[static_cast<size_t>(g / S)], g % S); };
-      auto value = [&](int32_t g) { return leaves[static_cast<size_t>(g / S)]->buffer().data()[g % S]; };
-      tbb::parallel_for(tbb::blocked_range<int32_t>(0, nc, 16), [&](const auto& range) {
-        long local = 0;
-        for (int32_t c = range.begin(); c != range.end(); ++c) {
-          const int32_t* m = members.data() + starts[c];
-          const int32_t count = starts[c + 1] - starts[c];
-          if (count <= 4) continue;  // below, once the large components are decided
-          int32_t far = m[0];
-          for (int32_t k = 1; k < count; ++k)
-            if (value(m[k]) > value(far)) far = m[k];
-          const int32_t probes[6] = {far, m[0], m[count / 4], m[count / 2], m[3 * count / 4], m[count - 1]};
-          bool agreed = true, verdict = false;
-          for (int k = 0; k < 6 && agreed; ++k) {
-            const double w = wn(position(probes[k]));
-            ++local;
-            const bool in = w > threshold;
-            if (std::abs(w - threshold) < 0.25 || (k > 0 && in != verdict)) agreed = false;
-            verdict = in;
-          }
-          if (!agreed) {
-            undecided[static_cast<size_t>(c)] = 1;
-            continue;
-          }
-          for (int32_t k = 0; k < count; ++k) inside_all[static_cast<size_t>(m[k])] = verdict;
-        }
-        evaluations += local;
-      });
-      // Small components (voxels within about half a voxel of the surface, cut off from their neighbours by the
-      // distance rule): with winding numbers, a member takes the sign of a neighbour voxel of a decided large
-      // component when no triangle lies on the segment between them (the grid's neighbour with the largest
-      // distance first); else, and always with pseudo-normals (whose probe is one closest-point query), its own
-      // probe.
-      auto decided = [&](int32_t g) {
-        const int32_t c = comp[static_cast<size_t>(g)];
-        return starts[c + 1] - starts[c] > 4 && !undecided[static_cast<size_t>(c)];
-      };
-      auto neighbour = [&](int32_t g, int a, int dir) -> int32_t {
-        const auto li = static_cast<size_t>(g / S);
-        const int32_t i = g % S;
-        Coord local = LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(i));
-        local[a] += dir;
-        if (local[a] >= 0 && local[a] < D) return static_cast<int32_t>(li * S) + static_cast<int32_t>(LeafT::coordToOffset(local));
-        Coord no = leaves[li]->origin();
-        no[a] += dir * D;
-        const auto it = leaf_at.find(key(no));
-        if (it == leaf_at.end() || leaves[static_cast<size_t>(it->second)]->origin() != no) return -1;
-        local[a] = (local[a] + D) % D;
-        return it->second * S + static_cast<int32_t>(LeafT::coordToOffset(local));
-      };
-      tbb::parallel_for(tbb::blocked_range<int32_t>(0, nc, 64), [&](const auto& range) {
-        long local = 0;
-        for (int32_t c = range.begin(); c != range.end(); ++c) {
-          const int32_t count = starts[c + 1] - starts[c];
-          if (count > 4) continue;
-          for (int32_t k = starts[c]; k < starts[c + 1]; ++k) {
-            const int32_t g = members[static_cast<size_t>(k)];
-            const Vec3 p = position(g);
-            int32_t from = -1;
-            if (winding) {
-              std::array<std::pair<float, int32_t>, 6> cand;
-              int nc6 = 0;
-              for (int a = 0; a < 3; ++a)
-                for (int dir : {-1, 1}) {
-                  const int32_t j = neighbour(g, a, dir);
-                  if (j >= 0 && decided(j)) cand[static_cast<size_t>(nc6++)] = {-value(j), j};
-                }
-              // Insertion sort of at most 6 (std::sort here trips GCC 12's -Warray-bounds on its dead >16 branch).
-              for (int q = 1; q < nc6; ++q)
-                for (int r = q; r > 0 && cand[static_cast<size_t>(r)] < cand[static_cast<size_t>(r - 1)]; --r)
-                  std::swap(cand[static_cast<size_t>(r)], cand[static_cast<size_t>(r - 1)]);
-              for (int q = 0; q < nc6 && from < 0; ++q)
-                if (!exact.segment_may_cross(p, position(cand[static_cast<size_t>(q)].second)))
-                  from = cand[static_cast<size_t>(q)].second;
-            }
-            if (from >= 0) {
-              inside_all[static_cast<size_t>(g)] = inside_all[static_cast<size_t>(from)];
-            } else {
-              inside_all[static_cast<size_t>(g)] = wn(p) > threshold;
-              ++local;
-            }
-          }
-        }
-        evaluations += local;
-      });
-      std::vector<char> redo(nl, 0);
-      for (int32_t c = 0; c < nc; ++c)
-        if (undecided[static_cast<size_t>(c)])
-          for (int32_t k = starts[c]; k < starts[c + 1]; ++k) redo[static_cast<size_t>(members[k] / S)] = 1;
-      std::vector<int32_t> which;
-      for (size_t li = 0; li < nl; ++li)
-        if (redo[li]) which.push_back(static_cast<int32_t>(li));
-      per_leaf(which);
+      signs_per_leaf(leaves, all, g, wn, inside_all, evaluations);
+    } else {
+      signs_by_band_components(leaves, g, wn, exact, winding != nullptr, inside_all, evaluations);
     }
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nl, 16), [&](const auto& range) {
+    // 3. Signs applied.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 16), [&](const auto& range) {
       for (size_t li = range.begin(); li != range.end(); ++li) {
         float* out = leaves[li]->buffer().data();
-        for (int32_t i = 0; i < S; ++i)
-          if (inside_all[li * S + static_cast<size_t>(i)]) out[i] = -out[i];
+        for (size_t i = 0; i < S; ++i)
+          if (inside_all[li * S + i]) out[i] = -out[i];
       }
     });
     st.band_voxels = static_cast<long>(tree.activeVoxelCount());
     progress(0.8);
-
-    // Beyond the band: 8^3 blocks of the leaves' bounding box that hold no leaf. Blocks connected face to
-    // face share a sign (the band separates inside from outside for closed surfaces); probe per component.
-    openvdb::CoordBBox lb;
-    for (const LeafT* leaf : leaves) lb.expand(leaf->origin());
-    if (!leaves.empty()) {
-      const Coord lo = lb.min(), hi = lb.max();
-      const int32_t nx = (hi.x() - lo.x()) / D + 1, ny = (hi.y() - lo.y()) / D + 1, nz = (hi.z() - lo.z()) / D + 1;
-      const auto nb = static_cast<size_t>(nx) * ny * nz;
-      std::vector<char> has_leaf(nb, 0);
-      auto block_index = [&](const Coord& o) {
-        return (static_cast<size_t>((o.x() - lo.x()) / D) * ny + (o.y() - lo.y()) / D) * nz + (o.z() - lo.z()) / D;
-      };
-      for (const LeafT* leaf : leaves) has_leaf[block_index(leaf->origin())] = 1;
-      std::vector<int32_t> empty_blocks;  // block index per item
-      std::vector<int32_t> item_of(nb, -1);
-      for (size_t b = 0; b < nb; ++b)
-        if (!has_leaf[b]) {
-          item_of[b] = static_cast<int32_t>(empty_blocks.size());
-          empty_blocks.push_back(static_cast<int32_t>(b));
-        }
-      const auto n = static_cast<int32_t>(empty_blocks.size());
-      UnionFind uf(static_cast<size_t>(n));
-      for (int32_t bx = 0; bx < nx; ++bx)
-        for (int32_t by = 0; by < ny; ++by)
-          for (int32_t bz = 0; bz < nz; ++bz) {
-            const size_t b = (static_cast<size_t>(bx) * ny + by) * nz + bz;
-            if (has_leaf[b]) continue;
-            if (bz + 1 < nz && !has_leaf[b + 1]) uf.unite(item_of[b], item_of[b + 1]);
-            if (by + 1 < ny && !has_leaf[b + nz]) uf.unite(item_of[b], item_of[b + nz]);
-            if (bx + 1 < nx && !has_leaf[b + static_cast<size_t>(ny) * nz])
-              uf.unite(item_of[b], item_of[b + static_cast<size_t>(ny) * nz]);
-          }
-      std::vector<int32_t> first(static_cast<size_t>(n));
-      for (int32_t i = 0; i < n; ++i) first[i] = uf.find(i);
-      auto block_center = [&](int32_t i) {
-        const int32_t b = empty_blocks[i];
-        const int32_t bz = b % nz, by = (b / nz) % ny, bx = b / (nz * ny);
-        return Vec3((lo.x() - O + bx * D + 0.5 * (D - 1)) * h, (lo.y() - O + by * D + 0.5 * (D - 1)) * h,
-                    (lo.z() - O + bz * D + 0.5 * (D - 1)) * h);
-      };
-      std::vector<char> inside(static_cast<size_t>(n), 0);
-      evaluations += classify_components(uf, n, first, block_center, wn, threshold, inside);
-      for (int32_t i = 0; i < n; ++i) {
-        if (!inside[i]) continue;
-        const int32_t b = empty_blocks[i];
-        const int32_t bz = b % nz, by = (b / nz) % ny, bx = b / (nz * ny);
-        tree.addTile(1, Coord(lo.x() + bx * D, lo.y() + by * D, lo.z() + bz * D), -background, false);
-        ++st.inside_tiles;
-      }
-    }
+    // 4. Inside tiles beyond the band.
+    st.inside_tiles = fill_inside_tiles(tree, leaves, g, wn, evaluations);
     st.winding_evaluations = evaluations;
     openvdb::tools::pruneLevelSet(tree);
   }

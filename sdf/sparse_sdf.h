@@ -58,10 +58,11 @@ class SparseSdf {
  public:
   SparseSdf();  ///< an empty field (every value = +background)
 
-  /// Build from a mesh (any frame; the grid uses the mesh's coordinates). Band topology from OpenVDB's
-  /// mesh-to-volume, exact unsigned distances from a BVH query per band voxel; signs from pseudo-normals or
-  /// winding numbers, evaluated only where the sign can change (see docs/prep.md). Throws InvalidInput for bad settings or
-  /// an empty mesh; `progress` may cancel (throws sdfkit::Error "cancelled").
+  /// Build from a mesh (any frame; the grid uses the mesh's coordinates), in four stages (sparse_sdf.cpp): the
+  /// exact unsigned band, built per 8^3 leaf from the triangles whose grown bounding boxes touch it; the band's
+  /// signs, from pseudo-normals or winding numbers probed per component of voxels with no surface between them;
+  /// the signs applied; inside tiles beyond the band (docs/prep.md). Throws InvalidInput for bad settings or an
+  /// empty mesh; `progress` may cancel (throws sdfkit::Error "cancelled").
   static SparseSdf from_mesh(const Mesh& mesh, const SparseSdfSettings& settings = {}, SparseSdfStats* stats = nullptr,
                              const ProgressFn& progress = {});
   /// Same, from a mesh whose query structures are already built (sdf/mesh_queries.h): the sign method is the
