@@ -7,6 +7,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <sstream>
@@ -14,6 +15,15 @@
 
 namespace sdfkit {
 namespace {
+
+/// A value read where a vertex index was expected, for a message: the integer when it is one, else as read (a NaN, a
+/// fraction or a value beyond any integer type is never cast).
+std::string index_text(double v) {
+  if (std::isfinite(v) && v == std::floor(v) && std::abs(v) < 9.0e15) return std::to_string(static_cast<long long>(v));
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", v);
+  return b;
+}
 
 enum class PlyType { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kFloat32, kFloat64, kUnknown };
 
@@ -346,8 +356,7 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
             const double idx = body.read(p.type, ename, f);
             if (!(idx >= 0 && idx < static_cast<double>(nv)) || idx != std::floor(idx))  // NaN fails too
               throw InvalidInput(name + ": face index out of range: face " + std::to_string(f) + " uses vertex " +
-                                 std::to_string(static_cast<long long>(idx)) + " but the file has " +
-                                 std::to_string(nv) + " vertices");
+                                 index_text(idx) + " but the file has " + std::to_string(nv) + " vertices");
             poly.push_back(static_cast<int32_t>(idx));
           }
           if (count < 3) {

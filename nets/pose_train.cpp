@@ -301,7 +301,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   };
   std::future<SdfBatch> next;
   if (step < s.steps) next = std::async(std::launch::async, load, step);
-  double interval_loss = 0, interval_ce = 0;
+  double interval_ce = 0;
   long interval_n = 0;
   bool stop = false;
   std::vector<double> item_loss(static_cast<size_t>(local)), item_ce(static_cast<size_t>(local));
@@ -331,7 +331,6 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     const double rate = lr.at(step);
     opt.step(net.params().values.data(), net.params().grads.data(), rate);
     ++step;
-    interval_loss += loss;
     ++interval_n;
     // Rank 0 decides when time is up, so that every rank stops after the same step.
     if (s.time_limit_seconds > 0 && comm.broadcast(elapsed() > s.time_limit_seconds)) stop = true;
@@ -346,7 +345,6 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
       row[4] = ev.val.d2d;
       curve.push_back(row);
       result.train_azimuth_ce = interval_n > 0 ? interval_ce / static_cast<double>(interval_n) : 0.0;
-      interval_loss = 0;
       interval_ce = 0;
       interval_n = 0;
       Json training = {{"step", step},       {"seconds", ev.seconds},     {"val_loss", ev.val.loss},

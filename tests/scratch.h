@@ -12,6 +12,19 @@
 
 namespace sdfkit::test {
 
+/// True in the AddressSanitizer build (scripts/test --sanitize), where address-space caps cannot be used.
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kAddressSanitizer = true;
+#else
+inline constexpr bool kAddressSanitizer = false;
+#endif
+#else
+inline constexpr bool kAddressSanitizer = false;
+#endif
+
 namespace detail {
 /// The folders made by this process; removed when it ends unless SDFKIT_KEEP_TEST_FILES is set (for debugging).
 struct ScratchRegistry {

@@ -222,7 +222,9 @@ TEST_CASE("eval refuses bad input with one line naming the file (exit 1)") {
       {" --split test", "--split applies to folders"},
       {" --jobs 2", "--jobs applies to folders"},
   };
-  for (const auto& [flags, message] : na) {
+  for (const auto& item : na) {
+    const auto& flags = item.first;
+    const auto& message = item.second;
     CAPTURE(flags);
     r = run("eval " + good.string() + " " + good.string() + flags);
     CHECK(r.code == 1);

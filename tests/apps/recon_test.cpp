@@ -247,7 +247,9 @@ TEST_CASE("recon outputs: the format follows -o, a folder only for a folder inpu
       {"recon " + img + " -o " + (dir / "l.obj").string() + " --refine-res 17" + cam, "applies with --refine-camera"},
       {"recon " + img + " -o " + (dir / "m.obj").string() + " --dense --safety 3" + cam, "--safety applies"},
   };
-  for (const auto& [cmd, message] : bad) {
+  for (const auto& item : bad) {
+    const auto& cmd = item.first;
+    const auto& message = item.second;
     CAPTURE(cmd);
     const Run r = run(cmd);
     CHECK(r.code == 1);

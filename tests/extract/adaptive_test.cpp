@@ -39,7 +39,9 @@ TEST_CASE("adaptive and dense give identical meshes for sphere, torus and box SD
       {"torus", pointwise([](const Vec3& p) { return torus_sdf(p, Vec3(0.0, 0.03, -0.02), 0.6, 0.18); })},
       // Box faces on grid planes: many values are exactly 0 (snapped vertices).
       {"box", pointwise([](const Vec3& p) { return box_sdf(p, Vec3(-0.6, -0.45, -0.3), Vec3(0.6, 0.45, 0.3)); })}};
-  for (const auto& [name, field] : fields) {
+  for (const auto& item : fields) {
+    const auto& name = item.first;
+    const auto& field = item.second;
     INFO(name);
     const ExtractSettings s = settings(81, 11);
     const ExtractResult dense = dense_extract(field, s);

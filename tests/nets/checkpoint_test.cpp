@@ -186,7 +186,9 @@ TEST_CASE("a forged block table is an IoError naming the file, never a wild read
       // the counts sum to 2^64 + 4, which wrapped to 4 and matched a 4-float payload
       {R"({"blocks":[{"name":"a","offset":0,"count":18446744073709551615},{"name":"b","offset":0,"count":5}]})", 4},
   };
-  for (const auto& [text, floats] : cases) {
+  for (const auto& item : cases) {
+    const auto& text = item.first;
+    const auto& floats = item.second;
     CAPTURE(text);
     write_forged_checkpoint(path, text, floats);
     std::string err = "no error";

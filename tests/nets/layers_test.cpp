@@ -6,13 +6,15 @@
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <tuple>
 
 using namespace sdfkit;
 using namespace sdfkit::test;
 
 TEST_CASE("conv2d gradients: stride, padding, 1x1 fast path") {
-  for (auto [k, s, p] : {std::tuple{3, 1, 1}, std::tuple{3, 2, 1}, std::tuple{4, 2, 0}, std::tuple{1, 1, 0},
-                         std::tuple{5, 3, 2}}) {
+  for (const auto& ksp : {std::tuple{3, 1, 1}, std::tuple{3, 2, 1}, std::tuple{4, 2, 0}, std::tuple{1, 1, 0},
+                          std::tuple{5, 3, 2}}) {
+    const int k = std::get<0>(ksp), s = std::get<1>(ksp), p = std::get<2>(ksp);
     CAPTURE(k);
     CAPTURE(s);
     CAPTURE(p);

@@ -98,7 +98,7 @@ TEST_CASE("pose net: predictions are valid look-at cameras within the distance r
   std::vector<PointsF> pts(3, random_points(10, 1));
   CHECK_THROWS_AS(net.forward_backward(img, pts, p.cameras), InvalidInput);  // inference-only model
   MatrixXfR bad(2, 10);
-  CHECK_THROWS_AS(net.predict(bad), InvalidInput);
+  CHECK_THROWS_AS((void)net.predict(bad), InvalidInput);
 }
 
 TEST_CASE("pose net: training on a tiny batch lowers L_cam, model file round trip") {
@@ -361,7 +361,8 @@ TEST_CASE("pose net with an azimuth head: the flip check turns the camera, the m
 
 TEST_CASE("distance head remap: same distance and slope at the old range's middle, adopted by a wider network") {
   const double a = 2.3, b = 3.15, a2 = 1.4, b2 = 4.4;
-  const auto [alpha, beta] = distance_logit_remap(a, b, a2, b2);
+  const std::pair<double, double> remap = distance_logit_remap(a, b, a2, b2);
+  const double alpha = remap.first, beta = remap.second;
   const auto sig = [](double z) { return 1.0 / (1.0 + std::exp(-z)); };
   const auto d_old = [&](double z) { return a + (b - a) * sig(z); };
   const auto d_new = [&](double z) { return a2 + (b2 - a2) * sig(alpha * z + beta); };

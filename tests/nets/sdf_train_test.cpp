@@ -287,7 +287,15 @@ TEST_CASE("--init starts from a model's weights, and jittered training is seeded
   ft.steps = 1;
   ft.out = (root / "ft.ckpt").string();
   train_sdf(ft);
-  CHECK(params(root, "ft.ckpt") == params(root, "a.ckpt"));
+  {
+    // Not bit for bit: a parameter that is exactly 0 (a dead unit's bias) moves by the step's 1e-30 when its
+    // gradient is not exactly 0, which depends on the compiler's rounding.
+    const std::vector<float> tuned = params(root, "ft.ckpt"), start = params(root, "a.ckpt");
+    REQUIRE(tuned.size() == start.size());
+    double diff = 0;
+    for (size_t i = 0; i < start.size(); ++i) diff = std::max(diff, double(std::abs(tuned[i] - start[i])));
+    CHECK(diff < 1e-20);
+  }
   ft.init = "";
   ft.out = (root / "scratch.ckpt").string();
   train_sdf(ft);

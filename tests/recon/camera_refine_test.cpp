@@ -53,7 +53,9 @@ TEST_CASE("refine_camera recovers a known perturbation of ~8 degrees and 10% dis
   const Mesh mesh = asymmetric_object();
   const Camera truth = look_at(35.0, 25.0, 2.7);
   const Image mask = render_silhouette(mesh, truth, 3);
-  for (const auto& [w, r] : {std::pair{Vec3(5.0, -6.0, 2.0), 1.1}, std::pair{Vec3(-4.0, 3.0, -6.0), 0.9}}) {
+  for (const auto& item : {std::pair{Vec3(5.0, -6.0, 2.0), 1.1}, std::pair{Vec3(-4.0, 3.0, -6.0), 0.9}}) {
+    const Vec3& w = item.first;
+    const double r = item.second;
     CAPTURE(w.transpose());
     CAPTURE(r);
     const Camera start = perturb_camera(truth, w, r);

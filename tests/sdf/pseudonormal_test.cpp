@@ -23,7 +23,9 @@ std::vector<std::pair<std::string, Mesh>> closed_meshes() {
 }  // namespace
 
 TEST_CASE("pseudo-normal sign equals the brute-force winding-number sign on closed meshes, also at edges and corners") {
-  for (const auto& [name, mesh] : closed_meshes()) {
+  for (const auto& named : closed_meshes()) {
+    const auto& name = named.first;
+    const auto& mesh = named.second;
     CAPTURE(name);
     REQUIRE(pseudo_normal_sign_applies(mesh));
     const PseudoNormals normals(mesh);
@@ -65,7 +67,7 @@ TEST_CASE("pseudo-normal sign equals the brute-force winding-number sign on clos
 
 TEST_CASE("pseudo-normals apply only to closed, consistently oriented, one-part meshes") {
   CHECK_FALSE(pseudo_normal_sign_applies(test::open_box()));
-  CHECK_THROWS_AS(PseudoNormals(test::open_box()), InvalidInput);
+  CHECK_THROWS_AS(PseudoNormals{test::open_box()}, InvalidInput);
   const Mesh two = concatenate(make_box(Vec3::Constant(-0.5), Vec3::Constant(0.1)),
                                make_box(Vec3::Constant(-0.1), Vec3::Constant(0.5)));
   CHECK(is_closed_oriented(two));
@@ -104,7 +106,9 @@ TEST_CASE("a self-intersecting closed one-part mesh fails the agreement guard an
 }
 
 TEST_CASE("grids signed by pseudo-normals and by winding numbers agree on closed meshes") {
-  for (const auto& [name, mesh] : closed_meshes()) {
+  for (const auto& named : closed_meshes()) {
+    const auto& name = named.first;
+    const auto& mesh = named.second;
     CAPTURE(name);
     SparseSdfSettings s;
     s.voxel_size = 0.03;

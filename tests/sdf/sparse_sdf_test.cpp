@@ -188,7 +188,9 @@ TEST_CASE("sparse SDF: band signs equal the winding-number sign at the default v
       {"open box", test::open_box(0.6)},
       {"two boxes", two},
       {"torus", make_torus(Vec3::Zero(), 0.6, 0.25, 64, 32)}};
-  for (const auto& [name, mesh] : meshes) {
+  for (const auto& item : meshes) {
+    const auto& name = item.first;
+    const auto& mesh = item.second;
     CAPTURE(name);
     SparseSdfSettings s;  // default voxel 2.4/256, band 3 voxels
     s.sign = SignMethod::kWindingNumber;
