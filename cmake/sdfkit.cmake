@@ -21,6 +21,24 @@ if(SDFKIT_NATIVE)
   endif()
 endif()
 
+# AddressSanitizer + UndefinedBehaviorSanitizer on every target (scripts/test --sanitize builds with clang, whose
+# -fsanitize=undefined also checks float-to-integer casts; GCC's does not). A finding stops the process, so a test
+# fails on it.
+if(SDFKIT_SANITIZE)
+  # UBSan stays recoverable so that tests/sanitizers/ubsan.supp can silence third-party findings; scripts/test sets
+  # halt_on_error=1, so every other finding still stops the process.
+  set(_sanitize -fsanitize=address,undefined -fno-omit-frame-pointer)
+  add_compile_options(${_sanitize})
+  add_link_options(${_sanitize})
+endif()
+# The fuzz targets need libFuzzer's coverage instrumentation in the code they reach (clang only).
+if(SDFKIT_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "SDFKIT_FUZZ needs clang (CC=clang CXX=clang++); libFuzzer is part of clang")
+  endif()
+  add_compile_options(-fsanitize=fuzzer-no-link)
+endif()
+
 # sdfkit_library(NAME DEPS a b c): every *.cpp in the calling folder becomes the static library
 # sdfkit_NAME (alias sdfkit::NAME). Headers are included as "NAME/header.h" from the repository root.
 # A folder without sources yet becomes an INTERFACE target so the tree always configures.
