@@ -15,6 +15,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstdint>
 #include <cstring>
 #include <array>
 #include <cstdio>
@@ -390,11 +391,37 @@ void check_stl(const std::string& path, const std::string& data) {
   }
 }
 
+/// A binary glTF's container (glTF 2.0 spec, "GLB File Format"): 12-byte header (magic, version 2, total length =
+/// the file size), then chunks of (length, type, data) that fit in the file, the first a JSON chunk. assimp trusts
+/// the length fields and allocates what they say (4 GB for a 748-byte file found by fuzzing).
+void check_glb(const std::string& path, const std::string& data) {
+  const auto u32 = [&](size_t at) {
+    uint32_t v = 0;
+    std::memcpy(&v, data.data() + at, 4);  // little endian, as the format and x86-64 / aarch64
+    return v;
+  };
+  if (data.size() < 20) fail_io(path, "truncated binary glTF file (" + std::to_string(data.size()) + " bytes)");
+  if (u32(4) != 2) fail_io(path, "binary glTF version " + std::to_string(u32(4)) + " (only version 2 is read)");
+  if (u32(8) != data.size())
+    fail_io(path, "binary glTF header says " + std::to_string(u32(8)) + " bytes, the file has " +
+                      std::to_string(data.size()));
+  for (size_t at = 12, index = 0; at < data.size(); ++index) {
+    if (data.size() - at < 8) fail_io(path, "truncated binary glTF chunk header at byte " + std::to_string(at));
+    const uint32_t length = u32(at), type = u32(at + 4);
+    if (length > data.size() - at - 8)
+      fail_io(path, "binary glTF chunk " + std::to_string(index) + " says " + std::to_string(length) +
+                        " bytes, the file has " + std::to_string(data.size() - at - 8) + " after its header");
+    if (index == 0 && type != 0x4E4F534Au) fail_io(path, "binary glTF file whose first chunk is not JSON");
+    at += 8 + static_cast<size_t>(length);
+  }
+}
+
 void check_structure(const std::string& path, const std::string& ext) {
   const std::string data = read_file(path);
   if (data.find_first_not_of(" \t\r\n") == std::string::npos) fail_io(path, "empty file");
   if (ext == "gltf" && data.find('{') == std::string::npos) fail_io(path, "not a glTF file (no JSON object)");
   if (ext == "glb" && data.compare(0, 4, "glTF") != 0) fail_io(path, "not a binary glTF file (no 'glTF' magic)");
+  if (ext == "glb") check_glb(path, data);
   if (ext == "obj") check_obj(path, data);
   else if (ext == "stl") check_stl(path, data);
 }

@@ -68,6 +68,44 @@ std::string tetra_gltf(const float rgb[3]) {
 }
 }  // namespace
 
+TEST_CASE("GLB: a container whose lengths do not fit the file is refused before assimp allocates them") {
+  // Found by scripts/fuzz glb: a 748-byte GLB whose chunk length said 4 GB made assimp allocate 4 GB.
+  const fs::path dir = test::scratch_dir("core_glb");
+  fs::create_directories(dir);
+  const auto glb = [](uint32_t version, int32_t length_delta, uint32_t chunk_length, const std::string& type) {
+    const std::string json = R"({"asset":{"version":"2.0"}})";
+    std::string b = "glTF";
+    const auto put = [&b](uint32_t v) { b.append(reinterpret_cast<const char*>(&v), 4); };
+    put(version);
+    put(static_cast<uint32_t>(12 + 8 + json.size() + length_delta));
+    put(chunk_length);
+    b += type;
+    b += json;
+    return b;
+  };
+  const uint32_t json_size = 27;  // {"asset":{"version":"2.0"}}
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {glb(2, 0, 0xFFFF0000u, "JSON"), "binary glTF chunk 0 says 4294901760 bytes, the file has 27 after its header"},
+      {glb(2, 5, json_size, "JSON"), "binary glTF header says 52 bytes, the file has 47"},
+      {glb(1, 0, json_size, "JSON"), "binary glTF version 1"},
+      {glb(2, 0, json_size, std::string("BIN\0", 4)), "first chunk is not JSON"},
+      {std::string("glTF\2\0\0\0", 8), "truncated binary glTF file (8 bytes)"},
+  };
+  for (size_t i = 0; i < cases.size(); ++i) {
+    CAPTURE(i);
+    const std::string path = (dir / ("bad" + std::to_string(i) + ".glb")).string();
+    write_text_atomic(path, cases[i].first);
+    try {
+      (void)read_mesh(path);
+      FAIL("accepted");
+    } catch (const IoError& e) {
+      const std::string msg = e.what();
+      CHECK(msg.rfind(path + ": ", 0) == 0);
+      CHECK_MESSAGE(msg.find(cases[i].second) != std::string::npos, msg);
+    }
+  }
+}
+
 TEST_CASE("glTF: a tetrahedron reads with its faces and its material's base colour") {
   const fs::path dir = test::scratch_dir("core_gltf");
   fs::create_directories(dir);
