@@ -280,23 +280,31 @@ SdfBatch BatchSampler::batch(long step, int begin, int end) const {
   return out;
 }
 
-}  // namespace sdfkit
-
-namespace sdfkit {
 
 Json ImageAugmentSettings::to_json() const {
   return {{"colour", colour}, {"channel_swap", channel_swap}, {"noise", noise}};
 }
+
+namespace {
+
+/// Side S of B x (3 * S * S) channels-first rows; InvalidInput naming `what` otherwise.
+int square_side(Eigen::Index values, const char* what) {
+  const Eigen::Index plane = values / 3;
+  const auto side = static_cast<Eigen::Index>(std::lround(std::sqrt(static_cast<double>(plane))));
+  require(values % 3 == 0 && side * side == plane && side > 0,
+          std::string(what) + ": rows must hold 3 square channels, got " + std::to_string(values) + " values");
+  return static_cast<int>(side);
+}
+
+}  // namespace
 
 void augment_images(MatrixXfR& images, const ImageAugmentSettings& a, uint64_t seed, uint64_t stream) {
   require(a.colour >= 0 && a.colour < 1, "augmentation: colour strength must be in [0, 1)");
   require(a.channel_swap >= 0 && a.channel_swap <= 1, "augmentation: channel-swap probability must be in [0, 1]");
   require(a.noise >= 0 && std::isfinite(a.noise), "augmentation: noise must be a finite value >= 0");
   if (!a.enabled() || images.rows() == 0) return;
-  const Eigen::Index plane = images.cols() / 3;
-  const auto side = static_cast<Eigen::Index>(std::lround(std::sqrt(static_cast<double>(plane))));
-  require(images.cols() % 3 == 0 && side * side == plane,
-          "augmentation: rows must hold 3 square channels, got " + std::to_string(images.cols()) + " values");
+  const Eigen::Index side = square_side(images.cols(), "augmentation");
+  const Eigen::Index plane = side * side;
   static constexpr int kOrders[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
   tbb::parallel_for(Eigen::Index(0), images.rows(), [&](Eigen::Index b) {
     // Fixed draw order: colour (4 uniforms), swap (2), then noise, each only when enabled.
@@ -328,24 +336,12 @@ void augment_images(MatrixXfR& images, const ImageAugmentSettings& a, uint64_t s
   });
 }
 
-}  // namespace sdfkit
-
-namespace sdfkit {
-
 Json ZoomAugmentSettings::to_json() const { return {{"prob", prob}, {"min", min}, {"max", max}}; }
 
 namespace {
 
 /// Non-white: some channel darker than 1 - kZoomInk (the white background is exactly kNetBackground).
 constexpr float kZoomInk = 0.05f;
-
-int square_side(Eigen::Index values, const char* what) {
-  const Eigen::Index plane = values / 3;
-  const auto side = static_cast<Eigen::Index>(std::lround(std::sqrt(static_cast<double>(plane))));
-  require(values % 3 == 0 && side * side == plane && side > 0,
-          std::string(what) + ": rows must hold 3 square channels, got " + std::to_string(values) + " values");
-  return static_cast<int>(side);
-}
 
 }  // namespace
 
@@ -377,16 +373,18 @@ Eigen::VectorXf zoom_image(const Eigen::Ref<const Eigen::VectorXf>& image, int s
   };
   // Magnifying: one bilinear sample per pixel. Shrinking: 2 x 2 samples, as an area average would see.
   static constexpr double kOne[1] = {0.0}, kTwo[2] = {-0.25, 0.25};
-  const std::vector<double> sub = k >= 1 ? std::vector<double>(kOne, kOne + 1) : std::vector<double>(kTwo, kTwo + 2);
-  const double weight = 1.0 / static_cast<double>(sub.size() * sub.size());
+  const int n = k >= 1 ? 1 : 2;
+  const double* sub = k >= 1 ? kOne : kTwo;
+  const double weight = 1.0 / (n * n);
   for (int ch = 0; ch < 3; ++ch) {
     const float* src = image.data() + ch * plane;
     float* dst = out.data() + ch * plane;
     for (int y = 0; y < size; ++y)
       for (int x = 0; x < size; ++x) {
         double acc = 0;
-        for (const double oy : sub)
-          for (const double ox : sub) {
+        for (int sy = 0; sy < n; ++sy)
+          for (int sx = 0; sx < n; ++sx) {
+            const double ox = sub[sx], oy = sub[sy];
             const double u = c + (x + 0.5 + ox - c) / k - 0.5, v = c + (y + 0.5 + oy - c) / k - 0.5;
             const double fu = std::floor(u), fv = std::floor(v);
             const int x0 = static_cast<int>(std::max(-2.0, std::min(fu, double(size) + 1)));

@@ -296,7 +296,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     SdfBatch batch = sampler.batch(at, i0, i1);
     const uint64_t stream = static_cast<uint64_t>(at) * static_cast<uint64_t>(s.batch) + i0;
     zoom_images(batch.images, batch.cameras, s.zoom, s.seed, stream);
-    augment_images(batch.images, s.augment, s.seed, static_cast<uint64_t>(at) * static_cast<uint64_t>(s.batch) + i0);
+    augment_images(batch.images, s.augment, s.seed, stream);
     return batch;
   };
   std::future<SdfBatch> next;
