@@ -112,11 +112,7 @@ std::function<int()> setup_train_pose(CLI::App& app) {
     PoseTrainSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
     {
-      double lo = 0, hi = 0;
-      char tail = 0;
-      if (std::sscanf(o->zoom_range.c_str(), "%lf,%lf%c", &lo, &hi, &tail) != 2 || !(lo > 0) || !(hi >= lo) ||
-          !std::isfinite(hi))
-        throw InvalidInput("train pose: --zoom-range wants MIN,MAX with 0 < MIN <= MAX, got '" + o->zoom_range + "'");
+      const auto [lo, hi] = parse_positive_range(o->zoom_range, "train pose: --zoom-range");
       s.zoom.min = lo;
       s.zoom.max = hi;
       if (s.zoom.enabled() && (s.net.distance_min > 2.45 / hi || s.net.distance_max < 3.0 / lo))

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <iostream>
 #include <sstream>
+#include <tuple>
 
 namespace sdfkit::app {
 namespace {
@@ -43,6 +44,7 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
     std::string variant = "two-stream";
     std::string encoder, point_mlp, decoder;
     double minutes = 0;
+    std::string zoom_range = "0.7,1.6";
     bool json = false;
   };
   auto o = std::make_shared<Opts>();
@@ -95,6 +97,15 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
                  "azimuth error")
       ->capture_default_str()
       ->check(in_range(0.0, 180.0));
+  app.add_option("--aug-zoom", s.zoom.prob,
+                 "probability of magnifying a training image about its centre by a factor from --zoom-range, the "
+                 "camera's intrinsics magnified with it (exact), so that the network meets objects at other scales "
+                 "than the renders' (recon's framing of photos); 0 = off")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
+  app.add_option("--zoom-range", o->zoom_range,
+                 "MIN,MAX: range of the zoom factor (log-uniform; lowered where the object would leave the frame)")
+      ->capture_default_str();
   app.add_option("--weight-decay", s.weight_decay, "L2 weight decay (coupled, as DISN's regulariser)")
       ->capture_default_str();
   app.add_option("--grad-clip", s.grad_clip, "clip the gradient norm to this value (0 = off)")->capture_default_str();
@@ -127,6 +138,7 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
     s.net.point_mlp = parse_widths(o->point_mlp, "--point-mlp");
     s.net.decoder = parse_widths(o->decoder, "--decoder");
     s.time_limit_seconds = o->minutes * 60.0;
+    std::tie(s.zoom.min, s.zoom.max) = parse_positive_range(o->zoom_range, "train sdf: --zoom-range");
     // In an MPI job (mpirun/srun, nets/comm.h) every rank trains; rank 0 alone reports and writes files.
     const bool root = Comm::world().is_root();
     if (root && Comm::world().size() > 1)

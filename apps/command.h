@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace sdfkit::app {
@@ -37,6 +38,10 @@ std::string require_model_path(const std::string& path, const std::string& flag)
 CLI::Validator positive();
 CLI::Validator non_negative();
 CLI::Validator in_range(double lo, double hi);
+
+/// "MIN,MAX" with 0 < MIN <= MAX (finite) as {MIN, MAX}; InvalidInput naming `what` (e.g. "train sdf: --zoom-range")
+/// otherwise.
+std::pair<double, double> parse_positive_range(const std::string& text, const std::string& what);
 
 /// True when stderr is a terminal (progress bars are drawn only then).
 bool stderr_is_tty();

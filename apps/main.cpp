@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -68,6 +69,14 @@ CLI::Validator in_range(double lo, double hi) {
   return numeric_check([lo, hi](double v) { return v >= lo && v <= hi; },
                        "between " + number_text(lo) + " and " + number_text(hi),
                        "in [" + number_text(lo) + " - " + number_text(hi) + "]");
+}
+
+std::pair<double, double> parse_positive_range(const std::string& text, const std::string& what) {
+  double lo = 0, hi = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf%c", &lo, &hi, &tail) != 2 || !(lo > 0) || !(hi >= lo) || !std::isfinite(hi))
+    throw InvalidInput(what + " wants MIN,MAX with 0 < MIN <= MAX, got '" + text + "'");
+  return {lo, hi};
 }
 
 std::string default_model_dir() {

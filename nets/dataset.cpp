@@ -336,12 +336,15 @@ void augment_images(MatrixXfR& images, const ImageAugmentSettings& a, uint64_t s
   });
 }
 
-Json ZoomAugmentSettings::to_json() const { return {{"prob", prob}, {"min", min}, {"max", max}}; }
+Json ZoomAugmentSettings::to_json() const {
+  Json j = {{"prob", prob}, {"min", min}, {"max", max}};
+  // Only the newer mode is named, so that the pose models' stored settings (distance) still match on --resume.
+  if (camera == CameraFollow::kFocal) j["camera"] = "focal";
+  return j;
+}
 
 namespace {
 
-/// Non-white: some channel darker than 1 - kZoomInk (the white background is exactly kNetBackground).
-constexpr float kZoomInk = 0.05f;
 
 }  // namespace
 
@@ -353,9 +356,7 @@ double max_zoom_inside(const Eigen::Ref<const Eigen::VectorXf>& image, int size)
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x) {
       const Eigen::Index i = static_cast<Eigen::Index>(y) * size + x;
-      if (image[i] >= kNetBackground - kZoomInk && image[plane + i] >= kNetBackground - kZoomInk &&
-          image[2 * plane + i] >= kNetBackground - kZoomInk)
-        continue;
+      if (!is_ink(image[i], image[plane + i], image[2 * plane + i])) continue;
       r = std::max({r, std::abs(x + 0.5 - c) + 0.5, std::abs(y + 0.5 - c) + 0.5});
     }
   return r > 0 ? (c - 1.0) / r : std::numeric_limits<double>::infinity();
@@ -419,7 +420,17 @@ void zoom_images(MatrixXfR& images, std::vector<Camera>& cameras, const ZoomAugm
     k = std::min(k, max_zoom_inside(row, S));
     images.row(b) = zoom_image(row, S, k).transpose();
     Camera& cam = cameras[static_cast<size_t>(b)];
-    cam.t.z() /= k;
+    if (z.camera == ZoomAugmentSettings::CameraFollow::kDistance) {
+      cam.t.z() /= k;
+    } else {
+      // The zoom maps image point q to c + k (q - c); the image spans the camera's pixel grid.
+      const double cx = 0.5 * cam.width, cy = 0.5 * cam.height;
+      cam.K(0, 0) *= k;
+      cam.K(1, 1) *= k;
+      cam.K(0, 1) *= k;
+      cam.K(0, 2) = k * cam.K(0, 2) + (1 - k) * cx;
+      cam.K(1, 2) = k * cam.K(1, 2) + (1 - k) * cy;
+    }
     if (applied) (*applied)[static_cast<size_t>(b)] = k;
   });
 }

@@ -12,6 +12,7 @@
 #include "core/types.h"
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -23,6 +24,13 @@ namespace sdfkit {
 inline constexpr int kNetImageSize = 137;
 /// Background the network sees where the input is transparent (alpha 0): white.
 inline constexpr float kNetBackground = 1.0f;
+/// How far from the white background (in some channel) a pixel must be to count as the object's: the one rule
+/// behind the zoom augmentation's limit, recon's foreground masks and its framing checks.
+inline constexpr float kInkThreshold = 0.05f;
+/// True when (r, g, b) differs from kNetBackground by more than kInkThreshold in some channel.
+inline bool is_ink(float r, float g, float b) {
+  return std::min({r, g, b}) < kNetBackground - kInkThreshold || std::max({r, g, b}) > kNetBackground + kInkThreshold;
+}
 
 /// One prepared shape.
 struct ShapeEntry {
@@ -159,19 +167,25 @@ struct ImageAugmentSettings {
 /// Throws InvalidInput on settings out of range or on rows that are not 3 square channels.
 void augment_images(MatrixXfR& images, const ImageAugmentSettings& settings, uint64_t seed, uint64_t stream);
 
-/// Zoom augmentation for the pose estimator, so that it reads the camera distance from the object's size in the
-/// image (recon frames real inputs to the renders' median object size, whatever the photo's scale; the network
-/// must then answer with the distance that size implies).
+/// Zoom augmentation: objects at other scales in the image than the renders' (recon frames real inputs to the
+/// renders' median object size, whatever the photo's scale).
 ///   - With probability `prob` an image is magnified by k about its centre (log-uniform in [min, max]), resampled
 ///     bilinearly (2 x 2 samples per pixel when shrinking), white outside the source. k is lowered when the magnified object would
 ///     leave the image (its non-white pixels stay at least one pixel inside the border).
-///   - The camera follows by weak perspective: t.z becomes t.z / k. For the prepared views (look-at cameras, the
-///     object-frame origin at the image centre) this is exact for the origin and, for a unit-sphere object at
-///     distance 2.5, within about 6% for its farthest points: the intrinsics stay DISN's, as the network assumes.
+///   - The camera follows in one of two ways (`camera`):
+///     - kDistance (the pose estimator, which must answer with the distance the object's size implies): weak
+///       perspective, t.z becomes t.z / k. For the prepared views (look-at cameras, the object-frame origin at the
+///       image centre) this is exact for the origin and, for a unit-sphere object at distance 2.5, within about 6%
+///       for its farthest points: the intrinsics stay DISN's, as that network assumes.
+///     - kFocal (the SDF network, which projects points with the camera it is given): the intrinsics are magnified
+///       about the image centre c (camera pixels, corner origin): f' = k f, c' = k c0 + (1 - k) c for the principal
+///       point c0. Exact: every object point projects where the zoomed image shows it.
 /// Image b draws from Rng::derived(seed, stream + b) only (k and the coin are always drawn, in that order).
 struct ZoomAugmentSettings {
+  enum class CameraFollow { kDistance, kFocal };
   double prob = 0;           ///< probability of zooming an image, [0, 1]
   double min = 1, max = 1;   ///< range of the magnification k, 0 < min <= max
+  CameraFollow camera = CameraFollow::kDistance;
 
   [[nodiscard]] bool enabled() const { return prob > 0; }
   [[nodiscard]] Json to_json() const;

@@ -9,6 +9,22 @@
 
 namespace sdfkit {
 
+std::string format_csv(const std::vector<std::string>& header, const std::vector<std::vector<double>>& rows) {
+  std::ostringstream o;
+  for (size_t i = 0; i < header.size(); ++i) o << (i ? "," : "") << header[i];
+  o << '\n';
+  o << std::setprecision(7);
+  for (const auto& r : rows) {
+    for (size_t i = 0; i < r.size(); ++i) {
+      if (i) o << ',';
+      if (std::isfinite(r[i])) o << r[i];
+    }
+    o << '\n';
+  }
+  return o.str();
+}
+
+
 void write_loss_plot_svg(const std::string& path, const std::vector<std::vector<double>>& rows,
                          const std::vector<std::string>& names, const std::vector<int>& columns,
                          const std::string& title) {

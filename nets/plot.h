@@ -12,4 +12,8 @@ void write_loss_plot_svg(const std::string& path, const std::vector<std::vector<
                          const std::vector<std::string>& names, const std::vector<int>& columns,
                          const std::string& title);
 
+/// A loss curve as CSV text: the header line, then one line per row (7 significant digits; non-finite values are
+/// left empty).
+std::string format_csv(const std::vector<std::string>& header, const std::vector<std::vector<double>>& rows);
+
 }  // namespace sdfkit

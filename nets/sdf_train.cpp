@@ -70,21 +70,6 @@ std::vector<std::vector<double>> read_csv_numbers(const std::string& path, std::
   return rows;
 }
 
-std::string format_csv(const std::vector<std::string>& header, const std::vector<std::vector<double>>& rows) {
-  std::ostringstream o;
-  for (size_t i = 0; i < header.size(); ++i) o << (i ? "," : "") << header[i];
-  o << '\n';
-  o << std::setprecision(7);
-  for (const auto& r : rows) {
-    for (size_t i = 0; i < r.size(); ++i) {
-      if (i) o << ',';
-      if (std::isfinite(r[i])) o << r[i];
-    }
-    o << '\n';
-  }
-  return o.str();
-}
-
 }  // namespace
 
 // ------------------------------------------------------------------------------------------------ model files
@@ -204,6 +189,8 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   }
 
   require(st.camera_jitter_deg >= 0 && st.camera_jitter_deg <= 180, "train sdf: --camera-jitter must be in [0, 180]");
+  require(st.zoom.camera == ZoomAugmentSettings::CameraFollow::kFocal,
+          "train sdf: the zoom augmentation must move the intrinsics (the network projects with the camera)");
   SdfNet net(st.net);
   net.allocate_grads(true);
   net.init(st.seed);
@@ -243,7 +230,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
                            {"weight_decay", st.weight_decay}, {"grad_clip", st.grad_clip},
                            {"seed", st.seed},          {"max_shapes", st.max_shapes},   {"steps", st.steps},
                            {"train_shapes", train.size()}, {"init", st.init},
-                           {"camera_jitter_deg", st.camera_jitter_deg}};
+                           {"camera_jitter_deg", st.camera_jitter_deg}, {"zoom", st.zoom.to_json()}};
   if (st.resume && fs::exists(st.out)) {
     const Checkpoint ck = load_checkpoint(st.out);
     require_header_match(ck, "config", st.net.to_json(), st.out);
@@ -312,7 +299,11 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   }
   const float inv_batch = 1.0f / static_cast<float>(st.batch);
   // The next step's batch is read while this one trains.
-  auto load = [&sampler, i0 = i0, i1 = i1](long at) { return sampler.batch(at, i0, i1); };
+  auto load = [&sampler, &st, i0 = i0, i1 = i1](long at) {
+    SdfBatch batch = sampler.batch(at, i0, i1);
+    zoom_images(batch.images, batch.cameras, st.zoom, st.seed, static_cast<uint64_t>(at) * st.batch + i0);
+    return batch;
+  };
   std::future<SdfBatch> next;
   if (step < st.steps) next = std::async(std::launch::async, load, step);
 

@@ -40,6 +40,14 @@ struct SdfTrainSettings {
   /// a Gaussian angle of this standard deviation before the local features are sampled (the SDF targets stay), so
   /// that the network tolerates the azimuth errors of an estimated camera. Seeded per (seed, step) (jitter_cameras).
   double camera_jitter_deg = 0;
+  /// Zoom augmentation (nets/dataset.h, off by default): images magnified about their centre with the cameras'
+  /// intrinsics magnified with them (CameraFollow::kFocal, exact), so that the network meets objects at other scales
+  /// and focal lengths than the renders', as recon's framing of real inputs produces. Seeded per (seed, item).
+  ZoomAugmentSettings zoom = [] {
+    ZoomAugmentSettings z;
+    z.camera = ZoomAugmentSettings::CameraFollow::kFocal;
+    return z;
+  }();
   double time_limit_seconds = 0;    ///< stop (and save) once this much time has passed (0 = no limit)
 };
 

@@ -327,9 +327,7 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
     f.mask = Image(W, H, 1);
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x) {
-        float d = 0;
-        for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(rgb.at(x, y, c) - kBackground));
-        f.mask.at(x, y) = d > 0.05f ? 1.f : 0.f;
+        f.mask.at(x, y) = is_ink(rgb.at(x, y, 0), rgb.at(x, y, 1), rgb.at(x, y, 2)) ? 1.f : 0.f;
       }
     f.mask_source = "none";
   } else {
@@ -422,10 +420,9 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
   long shown = 0;
   for (int y = 0; y < kNetImageSize; ++y)
     for (int x = 0; x < kNetImageSize; ++x) {
-      float d = 0;
       const float a = f.image.at(x, y, 3);
-      for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(a * f.image.at(x, y, c) + (1 - a) * kBackground - kBackground));
-      shown += d > 0.05f;
+      const auto shown_as = [&](int c) { return a * f.image.at(x, y, c) + (1 - a) * kBackground; };
+      shown += is_ink(shown_as(0), shown_as(1), shown_as(2));
     }
   const double n = static_cast<double>(kNetImageSize) * kNetImageSize;
   if (shown < st.min_object_share * n)

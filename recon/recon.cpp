@@ -41,13 +41,10 @@ void paste_rgb_on_white(const Image& rgba, Image& dst, int x0) {
     }
 }
 
-/// Pixel i of a 3 x 137 x 137 network input is foreground when a channel differs from the white background by
-/// more than 0.05.
+/// Pixel i of a 3 x 137 x 137 network input is foreground when it is ink (nets/dataset.h).
 bool is_foreground(const Eigen::VectorXf& input, int i) {
   const int n = kNetImageSize * kNetImageSize;
-  float d = 0;
-  for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(input[c * n + i] - kNetBackground));
-  return d > 0.05f;
+  return is_ink(input[i], input[n + i], input[2 * n + i]);
 }
 
 }  // namespace

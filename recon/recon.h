@@ -93,7 +93,7 @@ struct ReconResult {
   Image preview;                ///< RGB, 4 panels side by side (empty when settings.preview is false)
 };
 
-/// The non-white pixels (any channel off white by more than 0.05) of a network input (3 x 137 x 137).
+/// The non-white pixels (is_ink, nets/dataset.h: any channel off white by more than 0.05) of a network input (3 x 137 x 137).
 Image input_foreground(const Eigen::VectorXf& input);
 
 /// Holds the networks; run() is thread-safe (the pose network is serialised by a mutex).

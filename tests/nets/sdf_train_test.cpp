@@ -325,6 +325,27 @@ TEST_CASE("--init starts from a model's weights, and jittered training is seeded
   fs::remove_all(root);
 }
 
+TEST_CASE("zoomed training: recorded in the model, changes the training, resumes bit for bit") {
+  const fs::path root = make_torus_dataset("sdf_train_zoom");
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
+  st.steps = 6;
+  st.out = (root / "plain.ckpt").string();
+  train_sdf(st);
+  st.zoom.prob = 1.0;
+  st.zoom.min = 0.7;
+  st.zoom.max = 1.4;
+  straight_and_split(st, root, "z");
+  CHECK(params(root, "z_straight.ckpt") == params(root, "z_split.ckpt"));
+  CHECK(params(root, "z_straight.ckpt") != params(root, "plain.ckpt"));
+  const Json training = load_checkpoint((root / "z_straight.ckpt").string()).header.at("training");
+  CHECK(training.at("zoom").at("camera") == "focal");
+  CHECK(training.at("zoom").at("max") == 1.4);
+  // The distance mode would teach the local features wrong projections: refused.
+  st.zoom.camera = ZoomAugmentSettings::CameraFollow::kDistance;
+  CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  fs::remove_all(root);
+}
+
 TEST_CASE("a checkpoint of every variant loads back to the same predictions, damaged files are refused") {
   const fs::path dir = test::scratch_dir("sdf_models");
   fs::create_directories(dir);
