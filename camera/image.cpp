@@ -11,15 +11,49 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
+#include <string>
 
 namespace fs = std::filesystem;
 
 namespace sdfkit {
 
+namespace {
+
+/// A PNG's chunk lengths checked against the file before libpng sees them: libpng allocates an ancillary chunk's
+/// declared length (up to 2^31 - 1 bytes) before reading it, so a 270-byte file can cost gigabytes. Files that do
+/// not start with the PNG signature are left to OpenImageIO.
+void check_png_chunks(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  unsigned char head[8] = {};
+  if (!in.read(reinterpret_cast<char*>(head), 8) || !std::equal(head, head + 8, kSignature)) return;
+  std::error_code ec;
+  const uint64_t size = fs::file_size(path, ec);
+  if (ec) return;
+  uint64_t at = 8;
+  while (at < size) {
+    unsigned char h[8] = {};
+    if (size - at < 12 || !in.read(reinterpret_cast<char*>(h), 8))
+      throw IoError(path + ": corrupt PNG (truncated chunk header at byte " + std::to_string(at) + ")");
+    const uint64_t len = (uint64_t(h[0]) << 24) | (uint64_t(h[1]) << 16) | (uint64_t(h[2]) << 8) | uint64_t(h[3]);
+    const std::string type(reinterpret_cast<const char*>(h + 4), 4);
+    if (len > size - at - 12)
+      throw IoError(path + ": corrupt PNG (chunk '" + type + "' at byte " + std::to_string(at) + " declares " +
+                    std::to_string(len) + " bytes, the file has " + std::to_string(size - at - 12) + " left)");
+    if (type == "IEND") return;
+    at += 12 + len;
+    in.seekg(static_cast<std::streamoff>(at));
+  }
+}
+
+}  // namespace
+
 Image read_image(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw IoError(path + ": no such file");
   if (fs::is_directory(path, ec)) throw IoError(path + ": is a folder, not an image");
+  check_png_chunks(path);
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);  // keep colour values exactly as stored (no premultiplication)
   auto in = OIIO::ImageInput::open(path, &config);

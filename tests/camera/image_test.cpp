@@ -83,6 +83,18 @@ TEST_CASE("image: errors name the file") {
   const std::string bytes = read_file(dir + "/ok.png");
   write_text_atomic(dir + "/trunc.png", bytes.substr(0, bytes.size() / 2));
   CHECK_THROWS_AS(read_image(dir + "/trunc.png"), IoError);
+  // A chunk that declares more bytes than the file holds (libpng would allocate them first): refused up front,
+  // naming the chunk. IHDR is 8 + 4 + 4 + 13 + 4 bytes long; the lying chunk goes right after it.
+  std::string lying = bytes.substr(0, 33) + std::string("\x6a\x00\x00\x8a", 4) + "tEXt" + "Software" +
+                      bytes.substr(33);
+  write_text_atomic(dir + "/lying.png", lying);
+  try {
+    read_image(dir + "/lying.png");
+    FAIL("no exception");
+  } catch (const IoError& e) {
+    CHECK(std::string(e.what()).find("lying.png: corrupt PNG (chunk 'tEXt' at byte 33 declares 1778385034 bytes") !=
+          std::string::npos);
+  }
 
   Image nan(2, 2, 1);
   nan.data[1] = NAN;
