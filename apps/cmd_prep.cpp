@@ -260,7 +260,14 @@ std::function<int()> setup_prep(CLI::App& app) {
         const std::string key = j.category + "/" + j.shape;
         mine.samples.seed = Rng::derived(o->seed, std::stoull(fnv1a_hex(key), nullptr, 16)).next();
         const std::string dir = (fs::path(o->out) / j.category / j.shape).string();
+        bool owned = false;  // this run holds the shape folder's lock
         try {
+          // One writer per shape folder: a second `prep` into the same output (another shard scheme, a user
+          // starting it twice) leaves a shape that is being prepared to its owner and reports it.
+          const FolderLock lock(dir);
+          if (!lock.locked())
+            throw IoError(dir + ": another sdfkit prep is preparing this shape; run again when it has finished");
+          owned = true;
           const PrepareStatus st = prepare_shape(j.path, dir, mine);
           if (o->views > 0) {
             // Views of the normalised input (colours kept), each NN.json written last: render what is missing.
@@ -292,6 +299,9 @@ std::function<int()> setup_prep(CLI::App& app) {
           j.status = "failed";
           j.reason = e.what();
           bar.print_line(stderr, std::string("sdfkit: error: ") + e.what());
+          // No half shape stays behind (a full disk, a crash of the mesher): what this run wrote for it goes.
+          std::error_code ec;
+          if (owned && !shape_is_complete(dir)) fs::remove_all(dir, ec);
         }
         bar.tick();
       }, tbb::simple_partitioner());

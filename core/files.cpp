@@ -3,7 +3,9 @@
 #include "core/error.h"
 #include "core/json.h"
 
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -34,9 +36,8 @@ void write_file_atomic(const std::string& path, const std::function<void(std::os
       fs::remove(tmp, ec);
       throw;
     }
-    out.flush();
-    if (!out) {
-      out.close();
+    out.close();  // a full disk may only say so when the last buffer is written
+    if (out.fail()) {
       fs::remove(tmp, ec);
       throw IoError(path + ": write failed (disk full?)");
     }
@@ -50,6 +51,26 @@ void write_file_atomic(const std::string& path, const std::function<void(std::os
 
 void write_text_atomic(const std::string& path, const std::string& text) {
   write_file_atomic(path, [&](std::ostream& o) { o << text; });
+}
+
+FolderLock::FolderLock(const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw IoError(dir + ": cannot create the folder (" + ec.message() + ")");
+  fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd_ < 0) throw IoError(dir + ": cannot open the folder (" + std::strerror(errno) + ")");
+  if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) {
+    held_ = true;
+  } else if (errno != EWOULDBLOCK) {
+    const std::string why = std::strerror(errno);
+    ::close(fd_);
+    fd_ = -1;
+    throw IoError(dir + ": cannot lock the folder (" + why + ")");
+  }
+}
+
+FolderLock::~FolderLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing the descriptor releases the lock
 }
 
 int remove_stale_temporaries(const std::string& path) {

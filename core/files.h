@@ -20,6 +20,23 @@ void write_text_atomic(const std::string& path, const std::string& text);
 /// Removes the temporary files `path + ".tmp.<pid>"` that write_file_atomic left behind when its process was killed
 /// (the pid no longer runs on this machine); a live writer's file is left alone. Returns how many were removed.
 int remove_stale_temporaries(const std::string& path);
+/// An exclusive lock on a folder (flock), held while the object lives and released by the kernel when the process
+/// ends, however it ends. Two processes (or two objects in one process) cannot hold the same folder's lock.
+class FolderLock {
+ public:
+  /// Creates `dir` when missing and tries to lock it without waiting: locked() tells whether it got it. Throws
+  /// IoError naming the folder when it cannot be created or opened.
+  explicit FolderLock(const std::string& dir);
+  ~FolderLock();
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+  [[nodiscard]] bool locked() const { return held_; }
+
+ private:
+  int fd_ = -1;
+  bool held_ = false;
+};
+
 /// Whole file as bytes; IoError naming the path when it cannot be read.
 std::string read_file(const std::string& path);
 

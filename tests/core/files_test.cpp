@@ -145,3 +145,30 @@ TEST_CASE("Rng: seeded, uniform in range, unbiased below()") {
   CHECK(sum / n == doctest::Approx(0.5).epsilon(0.02));
   for (long k : counts) CHECK(std::abs(k - n / 3) < 600);  // > 5 sigma
 }
+
+TEST_CASE("FolderLock: one holder at a time, in this process or another, released with its holder") {
+  const std::filesystem::path dir = test::scratch_dir("folder_lock") / "shape";
+  {
+    const FolderLock a(dir.string());
+    CHECK(a.locked());
+    CHECK(std::filesystem::is_directory(dir));
+    const FolderLock b(dir.string());
+    CHECK_FALSE(b.locked());
+    // Another process cannot take it either (flock: per open file description, inherited by nobody here).
+    const pid_t pid = fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+      const FolderLock c(dir.string());
+      _exit(c.locked() ? 1 : 0);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    CHECK(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 0);
+  }
+  const FolderLock again(dir.string());
+  CHECK(again.locked());
+  // A path under a regular file cannot be a folder: an IoError naming it.
+  write_text_atomic((dir / "file").string(), "x");
+  CHECK_THROWS_AS(FolderLock((dir / "file" / "sub").string()), IoError);
+}

@@ -202,3 +202,27 @@ TEST_CASE("sdfkit prep: ids with '..' or '.' are items that fail, never folders 
   CHECK(loose_files(dir / "o3").empty());
   CHECK(shape_is_complete((dir / "o3" / "c" / "good").string()));
 }
+
+TEST_CASE("sdfkit prep: a shape another prep is preparing is left to it and reported, then done by a rerun") {
+  const fs::path dir = test::scratch_dir("prep_cli_lock");
+  fs::remove_all(dir);
+  write_mesh((dir / "in" / "boxes" / "a.obj").string(), make_box(Vec3::Constant(-1), Vec3(1, 2, 1)));
+  write_mesh((dir / "in" / "boxes" / "b.obj").string(), make_box(Vec3::Constant(-1), Vec3(2, 1, 1)));
+  const fs::path out = dir / "out";
+  {
+    // This process plays the other prep: it holds shape a's folder.
+    const FolderLock other((out / "boxes" / "a").string());
+    REQUIRE(other.locked());
+    const test::CliRun r = prep((dir / "in").string() + " -o " + out.string() + kFast);
+    CHECK(r.code == 2);
+    CHECK(r.err.find("boxes/a: another sdfkit prep is preparing this shape") != std::string::npos);
+    CHECK_FALSE(shape_is_complete((out / "boxes" / "a").string()));
+    CHECK(shape_is_complete((out / "boxes" / "b").string()));
+  }
+  // Released: the rerun prepares a and keeps b.
+  const test::CliRun r = prep((dir / "in").string() + " -o " + out.string() + kFast);
+  CHECK_MESSAGE(r.code == 0, r.err);
+  CHECK(shape_is_complete((out / "boxes" / "a").string()));
+  CHECK(r.out.find("1 prepared, 1 already complete, 0 failed") != std::string::npos);
+  fs::remove_all(dir);
+}
