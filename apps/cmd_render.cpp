@@ -17,7 +17,7 @@ namespace {
 
 std::function<int()> setup_render(CLI::App& app) {
   struct Opts {
-    std::string mesh, out;
+    std::string mesh, out, mesh_out;
     ViewSetSettings views;
     uint64_t seed = 0;
     bool no_normalize = false;
@@ -63,6 +63,9 @@ std::function<int()> setup_render(CLI::App& app) {
   app.add_flag("--no-normalize", o->no_normalize,
                "render the mesh as it is; by default it is first mapped to the unit sphere (centre = area-weighted "
                "centroid, farthest vertex at radius 1) and the mapping is saved as norm.json");
+  app.add_option("--mesh-out", o->mesh_out,
+                 "also write the mesh as rendered, in the views' object frame (.obj .ply .off .stl): the ground truth "
+                 "that `refine` results and `eval` compare against");
   app.add_flag("--json", o->json, "print a JSON summary on stdout");
   return [o] {
     ViewSetSettings st = o->views;
@@ -71,6 +74,11 @@ std::function<int()> setup_render(CLI::App& app) {
     if (o->distance.size() == 2) st.distance_min = o->distance[0], st.distance_max = o->distance[1];
     st.occlusion.mode = parse_occlusion_mode(o->occlude);
     validate_view_set_settings(st);
+    if (!o->mesh_out.empty()) {
+      const std::string e = extension_of(o->mesh_out);
+      if (e != "obj" && e != "ply" && e != "off" && e != "stl")
+        throw InvalidInput("--mesh-out " + o->mesh_out + ": give a mesh path ending in .obj, .ply, .off or .stl");
+    }
 
     const auto t0 = std::chrono::steady_clock::now();
     MeshReport report;
@@ -88,6 +96,10 @@ std::function<int()> setup_render(CLI::App& app) {
       summary["norm"] = nj["norm"];
     }
     const auto cams = render_view_set(mesh, o->out, st, o->seed);
+    if (!o->mesh_out.empty()) {
+      write_mesh(o->mesh_out, mesh);
+      summary["mesh_out"] = o->mesh_out;
+    }
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     summary["seconds"] = secs;
     if (o->json)

@@ -1,0 +1,208 @@
+// `sdfkit refine VIEWS_DIR -o MESH`: deform a mesh (a sphere, or a `recon` result) until its soft renders match a
+// view set's images (refine/refine.h); writes the mesh, its loss curve (CSV + SVG) and a preview sheet.
+#include "apps/bench_util.h"
+#include "apps/command.h"
+#include "camera/image.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/json.h"
+#include "core/mesh_io.h"
+#include "nets/plot.h"
+#include "refine/refine.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+
+namespace fs = std::filesystem;
+
+namespace sdfkit::app {
+namespace {
+
+/// OUT_STEM.SUFFIX beside the output mesh (out/cow.obj -> out/cow.loss.csv).
+std::string beside(const std::string& mesh, const std::string& suffix) {
+  const fs::path p(mesh);
+  return (p.parent_path() / p.stem()).string() + "." + suffix;
+}
+
+std::function<int()> setup_refine(CLI::App& app) {
+  struct Opts {
+    std::string views, out, init = "sphere", names, subdivide;
+    RefineSettings s;
+    int sphere_level = 4;
+    double sphere_radius = 1.0;
+    int preview = 4;
+    double minutes = 0;
+    bool json = false, adversarial = false;
+    double w_adversarial = 1.0;
+  };
+  auto o = std::make_shared<Opts>();
+  RefineSettings& s = o->s;
+  app.add_option("views", o->views, "view set folder: NN.png (RGBA) + NN.json (camera), as `render` and `prep --views` write")
+      ->required();
+  app.add_option("-o,--out", o->out,
+                 "refined mesh (.obj .ply .off .stl; OBJ and PLY keep the vertex colours); OUT_STEM.loss.csv, "
+                 ".loss.svg and .preview.png are written beside it")
+      ->required();
+  app.add_option("--view-names", o->names,
+                 "use only these views, comma-separated (e.g. 00,01,02: a recon input and two more); default all");
+  app.add_option("--init", o->init,
+                 "starting mesh: 'sphere' (an icosphere, see --sphere-level) or a mesh file in the views' object "
+                 "frame, e.g. a `recon` result of one of the views")
+      ->capture_default_str();
+  app.add_option("--sphere-level", o->sphere_level, "subdivisions of the starting icosphere (4: 2562 vertices)")
+      ->check(in_range(0, 7))
+      ->capture_default_str();
+  app.add_option("--sphere-radius", o->sphere_radius, "radius of the starting icosphere (views' object frame)")
+      ->check(positive())
+      ->capture_default_str();
+  app.add_option("--iters", s.iters, "optimisation steps")->check(positive())->capture_default_str();
+  app.add_option("--views-per-step", s.views_per_step, "views drawn at random for each step")
+      ->check(positive())
+      ->capture_default_str();
+  app.add_option("--lr", s.lr, "SGD learning rate on positions and colours")->check(positive())->capture_default_str();
+  app.add_option("--momentum", s.momentum, "SGD momentum")->check(in_range(0.0, 0.999999))->capture_default_str();
+  app.add_option("--w-silhouette", s.w_silhouette, "weight of the silhouette squared error")
+      ->check(non_negative())
+      ->capture_default_str();
+  app.add_option("--w-rgb", s.w_rgb, "weight of the RGB squared error (0: silhouettes only, faster)")
+      ->check(non_negative())
+      ->capture_default_str();
+  app.add_option("--w-edge", s.w_edge, "weight of the edge-length regulariser")
+      ->check(non_negative())
+      ->capture_default_str();
+  app.add_option("--w-normal", s.w_normal, "weight of the normal-consistency regulariser")
+      ->check(non_negative())
+      ->capture_default_str();
+  app.add_option("--w-laplacian", s.w_laplacian, "weight of the Laplacian smoothing regulariser")
+      ->check(non_negative())
+      ->capture_default_str();
+  app.add_flag("--adversarial", o->adversarial,
+               "train the paper's critic (dense blocks + self-attention, nets/critic.h) against the renders and add "
+               "its verdict to the loss");
+  app.add_option("--w-adversarial", o->w_adversarial, "weight of the adversarial term with --adversarial")
+      ->check(non_negative())
+      ->capture_default_str();
+  app.add_option("--critic-size", s.critic.size, "side in pixels the critic sees the images at (they are resized)")
+      ->check(in_range(16, 1024))
+      ->capture_default_str();
+  app.add_option("--sigma", s.raster.sigma, "edge softness of the silhouettes, in pixels^2")
+      ->check(positive())
+      ->capture_default_str();
+  app.add_option("--gamma", s.raster.gamma, "depth softness of the colour blending")
+      ->check(positive())
+      ->capture_default_str();
+  app.add_option("--subdivide-at", o->subdivide,
+                 "coarse to fine: after these steps (comma-separated) split every face into four and restart the "
+                 "momentum (see --subdivide-lr)");
+  app.add_option("--subdivide-lr", s.subdivide_lr_factor, "learning-rate factor at each --subdivide-at step")
+      ->check(positive())
+      ->capture_default_str();
+  app.add_option("--seed", s.seed, "seed of the views drawn at every step (same seed, same mesh)")->capture_default_str();
+  app.add_option("--log-every", s.log_every, "a loss-curve row every N steps")->check(positive())->capture_default_str();
+  app.add_option("--preview", o->preview, "views in the preview sheet (target above render; 0 = no sheet)")
+      ->check(in_range(0, 64))
+      ->capture_default_str();
+  app.add_option("--minutes", o->minutes, "stop after this many minutes, writing what was reached (0 = no limit)")
+      ->check(non_negative())
+      ->capture_default_str();
+  app.add_flag("--json", o->json, "print a JSON summary on stdout");
+  return [o] {
+    RefineSettings& s = o->s;
+    s.time_limit_seconds = o->minutes * 60.0;
+    s.w_adversarial = o->adversarial ? o->w_adversarial : 0.0;
+    const std::string ext = extension_of(o->out);
+    if (ext != "obj" && ext != "ply" && ext != "off" && ext != "stl")
+      throw InvalidInput("-o " + o->out + ": give a mesh path ending in .obj, .ply, .off or .stl");
+    validate_refine_settings(s);
+    std::vector<std::string> only;
+    for (size_t a = 0; !o->names.empty() && a <= o->names.size();) {
+      const size_t b = std::min(o->names.find(',', a), o->names.size());
+      if (b > a) only.push_back(o->names.substr(a, b - a));
+      a = b + 1;
+    }
+    s.subdivide_at.clear();
+    for (size_t a = 0; !o->subdivide.empty() && a <= o->subdivide.size();) {
+      const size_t b = std::min(o->subdivide.find(',', a), o->subdivide.size());
+      const std::string item = o->subdivide.substr(a, b - a);
+      char* end = nullptr;
+      const long v = std::strtol(item.c_str(), &end, 10);
+      if (item.empty() || *end != '\0' || v < 1 || v >= s.iters)
+        throw InvalidInput("--subdivide-at '" + o->subdivide + "': steps between 1 and --iters - 1, comma-separated");
+      s.subdivide_at.push_back(v);
+      a = b + 1;
+    }
+    const std::vector<TargetView> views = read_target_views(o->views, s.raster.background, only);
+    const Mesh init = o->init == "sphere" ? refine_sphere(o->sphere_level, o->sphere_radius) : read_mesh(o->init);
+    std::fprintf(stderr, "refine: %zu views of %d x %d px, %ld vertices, %ld steps of %d views\n", views.size(),
+                 views[0].camera.width, views[0].camera.height, static_cast<long>(init.V.rows()), s.iters,
+                 std::min<int>(s.views_per_step, static_cast<int>(views.size())));
+    ProgressBar bar("refine", s.iters);
+    const RefineResult r = refine_mesh(views, init, s, [&](const RefineRow& row) {
+      bar.update(row.step);
+      if (row.step % std::max<long>(1, s.iters / 10) < s.log_every || row.step == s.iters) {
+        char line[200];
+        std::snprintf(line, sizeof line, "step %ld/%ld  loss %.5f  silhouette %.5f  rgb %.5f  (%.1f s)", row.step,
+                      s.iters, row.loss, row.silhouette, row.rgb, row.seconds);
+        bar.print_line(stderr, line);
+      }
+    });
+    bar.finish();
+
+    write_mesh(o->out, r.mesh);
+    const std::vector<std::string> header = {"step",   "loss",      "silhouette",  "rgb",    "edge",
+                                             "normal", "laplacian", "adversarial", "critic", "seconds"};
+    std::vector<std::vector<double>> rows;
+    for (const RefineRow& row : r.curve)
+      rows.push_back({double(row.step), row.loss, row.silhouette, row.rgb, row.edge, row.normal, row.laplacian,
+                      row.adversarial, row.critic, row.seconds});
+    const std::string csv = beside(o->out, "loss.csv"), svg = beside(o->out, "loss.svg");
+    write_text_atomic(csv, format_csv(header, rows));
+    std::vector<int> plotted = {1, 2, 3, 4, 5, 6};
+    if (s.w_adversarial > 0) plotted.insert(plotted.end(), {7, 8});
+    write_loss_plot_svg(svg, rows, header, plotted, "refine: loss terms");
+    std::string preview;
+    if (o->preview > 0) {
+      std::vector<int> which;
+      const int n = static_cast<int>(views.size()), k = std::min(o->preview, n);
+      for (int i = 0; i < k; ++i) which.push_back(i * n / k);
+      preview = beside(o->out, "preview.png");
+      write_image(preview, refine_preview_sheet(views, which, r.mesh, s.raster));
+    }
+    const RefineRow last = r.curve.empty() ? RefineRow{} : r.curve.back();
+    const Json summary = {{"views", o->views},
+                          {"mesh", o->out},
+                          {"init", o->init},
+                          {"vertices", r.mesh.V.rows()},
+                          {"faces", r.mesh.F.rows()},
+                          {"steps", r.steps},
+                          {"seconds", r.seconds},
+                          {"seconds_per_step", r.seconds_per_step},
+                          {"peak_rss_mb", bench::peak_rss_mb()},
+                          {"loss", {{"total", last.loss},
+                                    {"silhouette", last.silhouette},
+                                    {"rgb", last.rgb},
+                                    {"edge", last.edge},
+                                    {"normal", last.normal},
+                                    {"laplacian", last.laplacian},
+                                    {"adversarial", last.adversarial},
+                                    {"critic", last.critic}}},
+                          {"adversarial", s.w_adversarial > 0},
+                          {"curve", {{"csv", csv}, {"svg", svg}}},
+                          {"preview", preview}};
+    if (o->json)
+      std::cout << summary.dump(2) << '\n';
+    else
+      std::cout << "refined " << r.mesh.V.rows() << " vertices in " << r.steps << " steps (" << r.seconds
+                << " s, " << r.seconds_per_step << " s/step); final loss " << last.loss << "\nmesh: " << o->out
+                << "\nloss curve: " << csv << ", " << svg << (preview.empty() ? "" : "\npreview: " + preview) << '\n';
+    return int(kOk);
+  };
+}
+
+SDFKIT_REGISTER_COMMAND("refine", "deform a mesh to match a view set by differentiable rendering", setup_refine);
+
+}  // namespace
+}  // namespace sdfkit::app

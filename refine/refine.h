@@ -1,0 +1,104 @@
+// Multi-view mesh refinement by differentiable rendering (`sdfkit refine`): a mesh (a sphere, or a `recon` result)
+// is deformed, and its vertex colours fitted, so that its soft renders (camera/soft_raster.h) match a view set's
+// images, with edge, normal-consistency and Laplacian regularisers (refine/regularisers.h). The recipe is the
+// refinement paper's (PyTorch3D's mesh fitting): SGD lr 1.0, momentum 0.9 on vertex positions and colours;
+// silhouette and RGB squared errors (means over pixels) of a random subset of views per step; weights 1 except
+// normal consistency 0.01.
+#pragma once
+
+#include "camera/camera.h"
+#include "camera/image.h"
+#include "camera/soft_raster.h"
+#include "core/types.h"
+#include "nets/critic.h"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace sdfkit {
+
+/// One target image with its camera.
+struct TargetView {
+  std::string name;  ///< e.g. "07"
+  Camera camera;
+  Image alpha;       ///< 1 channel, [0, 1]
+  Image rgb;         ///< 3 channels, composited on the rasteriser's background
+};
+
+/// Reads a view set folder (`sdfkit render`, `prep --views`): every NN.json with its NN.png (RGBA; RGB without
+/// alpha is refused since the silhouette is the main signal), in name order. The image composited on
+/// `background`. Throws IoError naming the file for a missing or unreadable image, a camera whose size differs from
+/// its image, or a folder without views. `only` (when not empty) keeps those views, in that order; a name
+/// without its files is an IoError.
+std::vector<TargetView> read_target_views(const std::string& dir,
+                                          const Eigen::Vector3d& background = Eigen::Vector3d::Ones(),
+                                          const std::vector<std::string>& only = {});
+
+struct RefineSettings {
+  long iters = 2000;
+  int views_per_step = 4;          ///< views drawn (without replacement) per step; all when >= the view count
+  double lr = 1.0, momentum = 0.9; ///< SGD on positions and colours (PyTorch's: buf = mu buf + g; x -= lr buf)
+  double w_silhouette = 1, w_rgb = 1, w_edge = 1, w_normal = 0.01, w_laplacian = 1;
+  /// Weight of the adversarial term (0 = no critic): the generator's binary cross-entropy of the critic's verdict
+  /// on the step's renders against "real" (nets/critic.h); the critic is trained on the same steps (Adam, real
+  /// targets against the renders) from a seed derived from `seed`.
+  double w_adversarial = 0;
+  CriticSettings critic;
+  /// sigma, gamma, background, ... Edges sharper than the rasteriser's default (0.1 px^2 against 0.5): measured
+  /// best on the cow of docs/results/refine.md (volumetric IoU 88 at sigma 0.1, 82 at 0.5, 86 at 0.02).
+  SoftRasterSettings raster = [] {
+    SoftRasterSettings r;
+    r.sigma = 0.1;
+    return r;
+  }();
+  uint64_t seed = 1;               ///< draws the views of every step
+  /// Coarse to fine: after each of these steps every face is split into four (subdivide_midpoints), momentum
+  /// restarts and the learning rate is multiplied by subdivide_lr_factor.
+  std::vector<long> subdivide_at;
+  double subdivide_lr_factor = 1;  ///< learning-rate factor at each subdivision
+  int log_every = 10;              ///< a loss-curve row every N steps (and the last)
+  double time_limit_seconds = 0;   ///< stop early after this long (0 = no limit)
+};
+
+/// Throws InvalidInput naming the bad field.
+void validate_refine_settings(const RefineSettings& settings);
+
+/// One row of the loss curve: the step's weighted total and its unweighted terms (image terms averaged over the
+/// step's views), wall seconds since the start.
+struct RefineRow {
+  long step = 0;
+  double loss = 0, silhouette = 0, rgb = 0, edge = 0, normal = 0, laplacian = 0, seconds = 0;
+  double adversarial = 0;  ///< the generator's critic loss (0 without a critic)
+  double critic = 0;       ///< the critic's own loss on the step's real and rendered images
+};
+
+struct RefineResult {
+  Mesh mesh;                     ///< positions and vertex colours (clamped to [0, 1]) after the last step
+  std::vector<RefineRow> curve;  ///< every log_every steps
+  long steps = 0;                ///< steps taken (fewer than iters when the time limit stopped it)
+  double seconds = 0;
+  double seconds_per_step = 0;
+};
+
+/// Midpoint subdivision: every triangle into four, new vertices (and colours, when `colours` has a row per vertex)
+/// at the edge midpoints, shared between the two faces of an edge. The new colours go to `finer_colours`.
+Mesh subdivide_midpoints(const Mesh& mesh, const Points& colours = Points(), Points* finer_colours = nullptr);
+
+/// The refinement paper's starting mesh: a level-`levels` icosphere of `radius` at the origin, grey (0.5).
+Mesh refine_sphere(int levels = 4, double radius = 1.0);
+
+/// Runs the optimisation from `init` (its colours, or 0.5 grey when it has none). `on_row` sees each curve row.
+/// Throws InvalidInput for an empty or invalid mesh, no views, or bad settings.
+RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init, const RefineSettings& settings,
+                         const std::function<void(const RefineRow&)>& on_row = {});
+
+/// Renders `mesh` (positions and colours) through `view`'s camera with the soft rasteriser of `raster`.
+SoftImages render_for_view(const Mesh& mesh, const TargetView& view, const SoftRasterSettings& raster);
+
+/// A preview sheet: for each chosen view, the target image above the mesh's soft render (RGB composited with its
+/// alpha on white), side by side.
+Image refine_preview_sheet(const std::vector<TargetView>& views, const std::vector<int>& which, const Mesh& mesh,
+                           const SoftRasterSettings& raster);
+
+}  // namespace sdfkit

@@ -1,0 +1,66 @@
+// CLI-level tests of `sdfkit refine`: a view set made by `render --mesh-out`, the outputs beside the mesh, the JSON
+// summary, `eval` of the result against the rendered mesh, and one-line errors.
+#include "cli_run.h"
+#include "core/files.h"
+#include "core/json.h"
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <filesystem>
+
+using namespace sdfkit;
+namespace fs = std::filesystem;
+
+TEST_CASE("sdfkit refine: a sphere fitted to a rendered box, files beside the mesh, scored by eval") {
+  const fs::path dir = test::scratch_dir("refine_cli");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  // A box, 1.4 x 0.8 x 1.0, as OBJ.
+  write_text_atomic((dir / "box.obj").string(),
+                    "v -0.7 -0.4 -0.5\nv 0.7 -0.4 -0.5\nv 0.7 0.4 -0.5\nv -0.7 0.4 -0.5\n"
+                    "v -0.7 -0.4 0.5\nv 0.7 -0.4 0.5\nv 0.7 0.4 0.5\nv -0.7 0.4 0.5\n"
+                    "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\n"
+                    "f 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n");
+  const std::string views = (dir / "views").string(), gt = (dir / "gt.obj").string();
+  test::CliRun r = test::run_sdfkit("render " + (dir / "box.obj").string() + " -o " + views +
+                                    " --views 8 --size 40 --elevation -20 50 --mesh-out " + gt);
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  REQUIRE(fs::exists(gt));
+  const std::string out = (dir / "out" / "box.ply").string();
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --iters 120 --sphere-level 2 --views-per-step 3 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const Json j = Json::parse(r.out);
+  CHECK(j.at("steps") == 120);
+  CHECK(j.at("vertices") == 162);
+  CHECK(j.at("seconds_per_step").get<double>() > 0);
+  CHECK(j.at("loss").at("silhouette").get<double>() < 0.05);
+  for (const char* f : {"box.ply", "box.loss.csv", "box.loss.svg", "box.preview.png"})
+    CHECK_MESSAGE(fs::exists(dir / "out" / f), f);
+  // 12 rows (every 10 steps) under the header.
+  const std::string csv = read_file((dir / "out" / "box.loss.csv").string());
+  CHECK(std::count(csv.begin(), csv.end(), '\n') == 13);
+  r = test::run_sdfkit("eval " + out + " " + gt + " --json --no-emd");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out).at("metrics").at("iou").get<double>() > 70);
+  // The same command gives the same bytes.
+  const std::string first = read_file(out);
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --iters 120 --sphere-level 2 --views-per-step 3");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(read_file(out) == first);
+
+  // Errors: one line, non-zero exit, naming the problem.
+  r = test::run_sdfkit("refine " + views + " -o " + (dir / "x.txt").string());
+  CHECK(r.code != 0);
+  CHECK(r.err.find("x.txt: give a mesh path ending in .obj, .ply, .off or .stl") != std::string::npos);
+  r = test::run_sdfkit("refine " + (dir / "nothing").string() + " -o " + out);
+  CHECK(r.code != 0);
+  CHECK(r.err.find("nothing: not a folder of views") != std::string::npos);
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --init " + (dir / "missing.obj").string());
+  CHECK(r.code != 0);
+  CHECK(r.err.find("missing.obj") != std::string::npos);
+  r = test::run_sdfkit("render " + (dir / "box.obj").string() + " -o " + views + " --mesh-out " + (dir / "g.xyz").string());
+  CHECK(r.code != 0);
+  CHECK(r.err.find("g.xyz: give a mesh path") != std::string::npos);
+  fs::remove_all(dir);
+}

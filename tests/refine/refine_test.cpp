@@ -1,0 +1,192 @@
+#include "refine/refine.h"
+
+#include "camera/silhouette.h"
+#include "camera/views.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/primitives.h"
+#include "scratch.h"
+
+#include <doctest/doctest.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <filesystem>
+
+using namespace sdfkit;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// A view set of a box (unit-sphere sized) in a scratch folder: 8 views at 40 px around and above it.
+fs::path box_views(const std::string& tag, Mesh* box = nullptr) {
+  const fs::path dir = test::scratch_dir(tag);
+  const Mesh m = make_box(Vec3(-0.7, -0.35, -0.45), Vec3(0.6, 0.4, 0.5));
+  ViewSetSettings vs;
+  vs.views = 8;
+  vs.size = 40;
+  vs.elevation_min = -20;
+  vs.elevation_max = 50;
+  render_view_set(m, (dir / "views").string(), vs, 5);
+  if (box) *box = m;
+  return dir;
+}
+
+double mean_silhouette_iou(const Mesh& m, const std::vector<TargetView>& views) {
+  double s = 0;
+  for (const auto& v : views) {
+    const Image sil = render_silhouette(m, v.camera, 2);
+    s += silhouette_iou(sil, v.alpha);
+  }
+  return s / static_cast<double>(views.size());
+}
+
+}  // namespace
+
+TEST_CASE("refine: a sphere deforms into a box's silhouettes, seeded and thread-independent") {
+  const fs::path dir = box_views("refine_box");
+  const std::vector<TargetView> views = read_target_views((dir / "views").string());
+  REQUIRE(views.size() == 8);
+  CHECK(views[0].name == "00");
+  RefineSettings s;
+  s.iters = 150;
+  s.views_per_step = 3;
+  s.log_every = 50;
+  const Mesh start = refine_sphere(2, 1.0);
+  const double before = mean_silhouette_iou(start, views);
+  const RefineResult a = refine_mesh(views, start, s);
+  const double after = mean_silhouette_iou(a.mesh, views);
+  INFO("silhouette IoU before ", before, ", after ", after);
+  CHECK(after > before + 0.3);  // 0.43 -> 0.80 (a 162-vertex sphere, 40 px views)
+  CHECK(after > 0.75);
+  REQUIRE(a.curve.size() == 3);
+  CHECK(a.curve.back().step == 150);
+  CHECK(a.curve.back().silhouette < a.curve.front().silhouette);
+  CHECK(a.mesh.has_colors());
+  RefineResult b;
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    b = refine_mesh(views, start, s);
+  }
+  CHECK((a.mesh.V.array() == b.mesh.V.array()).all());
+  CHECK((a.mesh.colors.array() == b.mesh.colors.array()).all());
+  s.seed = 2;
+  const RefineResult c = refine_mesh(views, start, s);
+  CHECK((a.mesh.V.array() != c.mesh.V.array()).any());
+  const Image sheet = refine_preview_sheet(views, {0, 1, 2}, a.mesh, s.raster);
+  CHECK(sheet.width == 120);
+  CHECK(sheet.height == 80);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("refine: view folders and settings are checked, naming the file") {
+  const fs::path dir = test::scratch_dir("refine_bad");
+  CHECK_THROWS_AS(read_target_views((dir / "none").string()), IoError);
+  fs::create_directories(dir / "empty");
+  try {
+    read_target_views((dir / "empty").string());
+    FAIL("expected IoError");
+  } catch (const IoError& e) {
+    CHECK(std::string(e.what()).find("no views") != std::string::npos);
+  }
+  // A camera whose size differs from its image.
+  const fs::path v = box_views("refine_bad_views");
+  Camera cam = read_camera((v / "views" / "03.json").string());
+  cam.width = 64;
+  write_camera((v / "views" / "03.json").string(), cam);
+  try {
+    read_target_views((v / "views").string());
+    FAIL("expected IoError");
+  } catch (const IoError& e) {
+    CHECK(std::string(e.what()).find("03.png: 40 x 40 pixels, its camera says 64 x 40") != std::string::npos);
+  }
+  // Chosen views come in the order asked; an unknown name is refused.
+  const auto two = read_target_views((v / "views").string(), Eigen::Vector3d::Ones(), {"05", "01"});
+  REQUIRE(two.size() == 2);
+  CHECK(two[0].name == "05");
+  CHECK(two[1].name == "01");
+  CHECK_THROWS_AS(read_target_views((v / "views").string(), Eigen::Vector3d::Ones(), {"99"}), IoError);
+  RefineSettings s;
+  s.momentum = 1;
+  CHECK_THROWS_AS(validate_refine_settings(s), InvalidInput);
+  s = {};
+  s.w_normal = -1;
+  CHECK_THROWS_AS(validate_refine_settings(s), InvalidInput);
+  CHECK_THROWS_AS(refine_mesh({}, refine_sphere(1), RefineSettings{}), InvalidInput);
+  fs::remove_all(dir);
+  fs::remove_all(v);
+}
+
+TEST_CASE("refine with the adversarial critic: both losses reported, seeded and thread-independent") {
+  const fs::path dir = box_views("refine_adv");
+  const std::vector<TargetView> views = read_target_views((dir / "views").string());
+  RefineSettings s;
+  s.iters = 20;
+  s.views_per_step = 2;
+  s.log_every = 10;
+  s.w_adversarial = 0.5;
+  s.critic.size = 16;
+  s.critic.stem = 4;
+  s.critic.block_layers = 2;
+  s.critic.growth = 3;
+  s.critic.key1 = s.critic.key2 = 2;
+  const Mesh start = refine_sphere(2, 1.0);
+  const RefineResult a = refine_mesh(views, start, s);
+  REQUIRE(a.curve.size() == 2);
+  for (const RefineRow& r : a.curve) {
+    CHECK(r.adversarial > 0);
+    CHECK(r.critic > 0);
+    CHECK(std::isfinite(r.loss));
+  }
+  RefineResult b;
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    b = refine_mesh(views, start, s);
+  }
+  CHECK((a.mesh.V.array() == b.mesh.V.array()).all());
+  // The critic's term moves the mesh: without it the result differs.
+  s.w_adversarial = 0;
+  const RefineResult c = refine_mesh(views, start, s);
+  CHECK((a.mesh.V.array() != c.mesh.V.array()).any());
+  CHECK(c.curve.back().adversarial == 0);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("subdivide_midpoints: 4 faces per face, shared midpoints, area and colours kept, refine grows the mesh") {
+  const Mesh ico = make_icosphere(Vec3::Zero(), 1.0, 0);
+  Points colours(12, 3);
+  for (int i = 0; i < 12; ++i) colours.row(i) = Vec3(i / 11.0, 1 - i / 11.0, 0.5).transpose();
+  Points finer_colours;
+  const Mesh m = subdivide_midpoints(ico, colours, &finer_colours);
+  CHECK(m.V.rows() == 12 + 30);  // one new vertex per edge
+  CHECK(m.F.rows() == 80);
+  CHECK(finer_colours.rows() == 42);
+  const auto area = [](const Mesh& x) {
+    double a = 0;
+    for (Eigen::Index f = 0; f < x.F.rows(); ++f) {
+      const Vec3 p = x.V.row(x.F(f, 0)), q = x.V.row(x.F(f, 1)), r = x.V.row(x.F(f, 2));
+      a += 0.5 * (q - p).cross(r - p).norm();
+    }
+    return a;
+  };
+  CHECK(area(m) == doctest::Approx(area(ico)));  // flat split: the same surface
+  // Each new vertex is the midpoint of an edge, with the mean colour of its ends.
+  for (Eigen::Index f = 0; f < ico.F.rows(); ++f) {
+    const int32_t a = m.F(4 * f, 0), ab = m.F(4 * f, 1);
+    CHECK(a == ico.F(f, 0));
+    const int32_t b = ico.F(f, 1);
+    CHECK((m.V.row(ab) - 0.5 * (ico.V.row(a) + ico.V.row(b))).norm() < 1e-15);
+    CHECK((finer_colours.row(ab) - 0.5 * (colours.row(a) + colours.row(b))).norm() < 1e-15);
+  }
+  // In refine: a 162-vertex sphere subdivided once ends with 642 vertices.
+  const fs::path dir = box_views("refine_subdivide");
+  const std::vector<TargetView> views = read_target_views((dir / "views").string());
+  RefineSettings s;
+  s.iters = 20;
+  s.subdivide_at = {10};
+  const RefineResult r = refine_mesh(views, refine_sphere(2, 1.0), s);
+  CHECK(r.mesh.V.rows() == 642);
+  CHECK(r.mesh.F.rows() == 1280);
+  CHECK(r.mesh.colors.rows() == 642);
+  fs::remove_all(dir);
+}
