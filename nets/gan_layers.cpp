@@ -24,6 +24,28 @@ double norm_of(const std::vector<double>& v) {
 }  // namespace
 
 // ----------------------------------------------------------------------------------------------- BatchNorm2d
+namespace {
+
+/// Mean and biased variance of channel c over the batch and the positions of an N x C x H x W tensor.
+template <typename T>
+void channel_stats(const TensorT<T>& x, int64_t c, double* mean, double* var) {
+  const int64_t N = x.dim(0), P = x.dim(2) * x.dim(3);
+  const double M = static_cast<double>(N * P);
+  double m = 0, v = 0;
+  for (int64_t n = 0; n < N; ++n)
+    for (int64_t p = 0; p < P; ++p) m += x.item(n)[c * P + p];
+  m /= M;
+  for (int64_t n = 0; n < N; ++n)
+    for (int64_t p = 0; p < P; ++p) {
+      const double d = x.item(n)[c * P + p] - m;
+      v += d * d;
+    }
+  *mean = m;
+  *var = v / M;
+}
+
+}  // namespace
+
 template <typename T>
 Json BatchNorm2d<T>::hyperparams() const {
   return {{"type", type()}, {"channels", channels_}, {"eps", eps_}};
@@ -49,18 +71,9 @@ void BatchNorm2d<T>::forward(const TensorT<T>& x, TensorT<T>& y) const {
   this->require_bound(false);
   y.resize(output_shape(x.shape));
   const int64_t N = x.dim(0), C = channels_, P = x.dim(2) * x.dim(3);
-  const double M = static_cast<double>(N * P);
   parallel_items(C, [&](int64_t c) {
     double mean = 0, var = 0;
-    for (int64_t n = 0; n < N; ++n)
-      for (int64_t p = 0; p < P; ++p) mean += x.item(n)[c * P + p];
-    mean /= M;
-    for (int64_t n = 0; n < N; ++n)
-      for (int64_t p = 0; p < P; ++p) {
-        const double d = x.item(n)[c * P + p] - mean;
-        var += d * d;
-      }
-    var /= M;
+    channel_stats(x, c, &mean, &var);
     const double scale = double(this->w_[c]) / std::sqrt(var + eps_), shift = double(this->w_[C + c]);
     for (int64_t n = 0; n < N; ++n)
       for (int64_t p = 0; p < P; ++p)
@@ -79,15 +92,7 @@ void BatchNorm2d<T>::backward(const TensorT<T>& x, const TensorT<T>& y, const Te
   // Channels are independent: each writes its own gamma/beta gradient, so no reduction order is at stake.
   parallel_items(C, [&](int64_t c) {
     double mean = 0, var = 0;
-    for (int64_t n = 0; n < N; ++n)
-      for (int64_t p = 0; p < P; ++p) mean += x.item(n)[c * P + p];
-    mean /= M;
-    for (int64_t n = 0; n < N; ++n)
-      for (int64_t p = 0; p < P; ++p) {
-        const double d = x.item(n)[c * P + p] - mean;
-        var += d * d;
-      }
-    var /= M;
+    channel_stats(x, c, &mean, &var);
     const double inv = 1.0 / std::sqrt(var + eps_);
     double sum_dy = 0, sum_dy_xhat = 0;
     for (int64_t n = 0; n < N; ++n)
