@@ -158,11 +158,11 @@ std::function<int()> setup_bench_extract(CLI::App& app) {
         // Distances: between results (vertices), and of each to the analytic surface (area samples).
         auto cd_to_dense = [&](const Mesh& m) {
           if (m.V.rows() == 0 || dense.V.rows() == 0) return std::nan("");
-          return 1000.0 * metrics::chamfer(m.V, dense.V).cd_squared();
+          return 1000.0 * chamfer(m.V, dense.V).cd_squared();
         };
         auto surface_error = [&](const Mesh& m) {
           if (m.F.rows() == 0) return std::nan("");
-          const Points p = metrics::sample_surface(m, o->samples, 7).points;
+          const Points p = sample_surface(m, o->samples, 7).points;
           double sum = 0;
           for (Eigen::Index i = 0; i < p.rows(); ++i) sum += std::abs(sdf(p.row(i).transpose()));
           return sum / double(p.rows());

@@ -59,7 +59,6 @@ std::function<int()> setup_bench_metrics(CLI::App& app) {
   app.add_flag("--json", o->json, "print the results as JSON");
   return [o] {
     using clock = std::chrono::steady_clock;
-    using namespace sdfkit::metrics;
     // A prediction close to its ground truth, as in scoring (CD x1000 about 1-2, like a good DISN result): two
     // tori of slightly different radii, shifted, tessellated differently.
     const Mesh gt = make_torus(Vec3::Zero(), 0.65, 0.3, 128, 64);

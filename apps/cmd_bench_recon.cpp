@@ -64,8 +64,8 @@ std::function<int()> setup_bench_recon(CLI::App& app) {
     if (!est && o->cam != "gt") throw InvalidInput("--cam " + o->cam + ": use gt or est");
     const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
                                          est ? require_model_path(o->pose_model, "--pose-model") : std::string());
-    metrics::ProtocolSettings ps;
-    ps.protocol = metrics::Protocol::kDisn;
+    ProtocolSettings ps;
+    ps.protocol = Protocol::kDisn;
     ps.with_emd = false;
     struct Row {
       int res;
@@ -100,7 +100,7 @@ std::function<int()> setup_bench_recon(CLI::App& app) {
         row.seconds.push_back(median(secs));
         row.field_seconds.push_back(median(fsecs));
         row.evals.push_back(static_cast<double>(r.evaluations));
-        const metrics::EvalResult e = metrics::evaluate(r.mesh, gt, ps);
+        const EvalResult e = evaluate(r.mesh, gt, ps);
         row.cd.push_back(e.get("cd").value_or(std::nan("")));
         row.iou.push_back(e.get("iou").value_or(std::nan("")));
         row.f1.push_back(e.get("f_1").value_or(std::nan("")));

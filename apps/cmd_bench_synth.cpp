@@ -47,11 +47,11 @@ std::function<int()> setup_bench_synth(CLI::App& app) {
   app.add_option("--seed", o->seed, "benchmark seed")->capture_default_str();
   app.add_flag("--json", o->json, "print the results as JSON");
   return [o] {
-    synth::SynthSettings s;
+    SynthSettings s;
     s.per_category = o->per_category;
     s.seed = o->seed;
-    const auto plan = synth::plan_benchmark(s);
-    const size_t ncat = synth::categories().size();
+    const auto plan = plan_benchmark(s);
+    const size_t ncat = categories().size();
 
     // 1. In-memory generation on one thread, per category (the baseline).
     std::vector<std::vector<double>> cat_ms(ncat);
@@ -62,7 +62,7 @@ std::function<int()> setup_bench_synth(CLI::App& app) {
       const auto t0 = std::chrono::steady_clock::now();
       for (const auto& e : plan) {
         const auto a = std::chrono::steady_clock::now();
-        const synth::SynthShape shape = synth::generate_shape(e.category, e.seed);
+        const SynthShape shape = generate_shape(e.category, e.seed);
         acc[e.category] += std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
         if (rep == 0) tris[e.category].push_back(static_cast<long>(shape.mesh.F.rows()));
       }
@@ -80,7 +80,7 @@ std::function<int()> setup_bench_synth(CLI::App& app) {
         fs::remove_all(dir);
         const double c0 = cpu_seconds();
         const auto t0 = std::chrono::steady_clock::now();
-        synth::write_benchmark(dir.string(), s);
+        write_benchmark(dir.string(), s);
         walls.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
         cpus.push_back(cpu_seconds() - c0);
       }
@@ -116,13 +116,13 @@ std::function<int()> setup_bench_synth(CLI::App& app) {
         all_tris.push_back(x);
       }
       const double ms = median(cat_ms[c]);
-      cats.push_back({{"category", synth::categories()[c].name},
+      cats.push_back({{"category", categories()[c].name},
                       {"ms_per_shape", ms},
                       {"triangles_min", mn},
                       {"triangles_median", median(t)},
                       {"triangles_max", mx}});
       if (!o->json)
-        std::printf("%-11s %10.3f %10ld %10.0f %10ld\n", synth::categories()[c].name.c_str(), ms, mn, median(t), mx);
+        std::printf("%-11s %10.3f %10ld %10.0f %10ld\n", categories()[c].name.c_str(), ms, mn, median(t), mx);
     }
     const Json out = {{"shapes", plan.size()},
                       {"per_category", o->per_category},

@@ -22,7 +22,6 @@ namespace sdfkit::app {
 namespace {
 
 namespace fs = std::filesystem;
-using namespace sdfkit::metrics;
 
 /// Text point cloud: one point per line, first three numbers x y z (more columns ignored; '#' starts a comment).
 Mesh read_xyz(const std::string& path) {

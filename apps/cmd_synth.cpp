@@ -40,7 +40,7 @@ std::function<int()> setup_synth(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   std::string names;
-  for (const auto& c : synth::categories()) names += (names.empty() ? "" : ",") + c.name;
+  for (const auto& c : categories()) names += (names.empty() ? "" : ",") + c.name;
   app.add_option("-o,--out", o->out, "output folder: DIR/<category>/<shape-id>.ply, categories.json, train/val/test.lst")
       ->required();
   app.add_option("--preset", o->preset, "ci = 3 shapes per category, full = 100 per category")
@@ -69,26 +69,26 @@ std::function<int()> setup_synth(CLI::App& app) {
       ->check(in_range(16, 2048))
       ->capture_default_str();
   return [o] {
-    synth::SynthSettings s;
+    SynthSettings s;
     s.per_category = o->per_category > 0 ? o->per_category : (o->preset == "full" ? 100 : 3);
     s.seed = o->seed;
     s.categories = split_commas(o->categories);
     s.jobs = o->jobs;
     s.split_base = o->split_base;
-    const auto plan = synth::plan_benchmark(s);  // validates categories before any work
+    const auto plan = plan_benchmark(s);  // validates categories before any work
     ProgressBar bar("synth", static_cast<long>(plan.size()));
     const auto t0 = std::chrono::steady_clock::now();
-    const synth::SynthSummary sum = synth::write_benchmark(o->out, s, [&](double f) {
+    const SynthSummary sum = write_benchmark(o->out, s, [&](double f) {
       bar.update(static_cast<long>(f * static_cast<double>(plan.size()) + 0.5));
       return true;
     });
     bar.finish();
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!o->sheet.empty()) {
-      synth::SheetSettings sheet;
+      SheetSettings sheet;
       sheet.per_category = o->sheet_k;
       sheet.cell = o->sheet_cell;
-      synth::write_contact_sheet(o->sheet, s, sheet);
+      write_contact_sheet(o->sheet, s, sheet);
     }
     if (o->json) {
       std::cout << Json{{"out", o->out},         {"shapes", sum.shapes},       {"faces", sum.faces},

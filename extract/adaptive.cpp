@@ -211,7 +211,7 @@ ExtractResult adaptive_extract(const BatchField& field, const ExtractSettings& s
         eval.request(c.i + h, c.j + h, c.k + h);
         continue;
       }
-      for (int corner = 0; corner < mc::kCorners; ++corner)
+      for (int corner = 0; corner < detail::kCorners; ++corner)
         eval.request(c.i + size * (corner & 1), c.j + size * ((corner >> 1) & 1), c.k + size * ((corner >> 2) & 1));
     }
     r.level_cells.push_back(static_cast<long>(cells.size()));
@@ -226,10 +226,10 @@ ExtractResult adaptive_extract(const BatchField& field, const ExtractSettings& s
         return at_boundary ? centre <= bound : std::abs(centre) <= bound;
       }
       int inside = 0;
-      for (int corner = 0; corner < mc::kCorners; ++corner)
+      for (int corner = 0; corner < detail::kCorners; ++corner)
         inside += store.get(c.i + size * (corner & 1), c.j + size * ((corner >> 1) & 1),
                             c.k + size * ((corner >> 2) & 1)) < 0 ? 1 : 0;
-      return (inside > 0 && inside < mc::kCorners) || (at_boundary && inside > 0);
+      return (inside > 0 && inside < detail::kCorners) || (at_boundary && inside > 0);
     };
     next.clear();
     for (const Cell& c : cells) {
@@ -265,7 +265,7 @@ ExtractResult adaptive_extract(const BatchField& field, const ExtractSettings& s
   tbb::parallel_sort(ordered.begin(), ordered.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   auto inside_grid = [&](int i, int j, int k) { return i >= 0 && j >= 0 && k >= 0 && i <= n && j <= n && k <= n; };
   for (const auto& [key, c] : ordered)
-    for (int corner = 0; corner < mc::kCorners; ++corner) {
+    for (int corner = 0; corner < detail::kCorners; ++corner) {
       const int ci = c.i + (corner & 1), cj = c.j + ((corner >> 1) & 1), ck = c.k + ((corner >> 2) & 1);
       if (inside_grid(ci, cj, ck)) eval.request(ci, cj, ck);
     }
@@ -276,28 +276,28 @@ ExtractResult adaptive_extract(const BatchField& field, const ExtractSettings& s
   // Marching cubes over consecutive chunks of the ordered cells, one builder per chunk, in parallel; appending
   // the chunks in order gives the serial build's mesh exactly (McBuilder::append), whatever the thread count.
   constexpr size_t kChunk = 8192;
-  std::vector<mc::McBuilder> chunks((ordered.size() + kChunk - 1) / kChunk);
+  std::vector<detail::McBuilder> chunks((ordered.size() + kChunk - 1) / kChunk);
   tbb::parallel_for(size_t(0), chunks.size(), [&](size_t ch) {
-    double sv[mc::kCorners];
+    double sv[detail::kCorners];
     const size_t end = std::min(ordered.size(), (ch + 1) * kChunk);
     for (size_t n = ch * kChunk; n < end; ++n) {
       const Cell& c = ordered[n].second;
       uint32_t pad = 0;
-      for (int corner = 0; corner < mc::kCorners; ++corner) {
+      for (int corner = 0; corner < detail::kCorners; ++corner) {
         const int ci = c.i + (corner & 1), cj = c.j + ((corner >> 1) & 1), ck = c.k + ((corner >> 2) & 1);
         if (inside_grid(ci, cj, ck)) {
           sv[corner] = double(store.get(ci, cj, ck));
         } else {
           pad |= 1u << corner;
-          sv[corner] = mc::kPadValue;
+          sv[corner] = detail::kPadValue;
         }
       }
-      if (!mc::McBuilder::has_crossing(sv, pad)) continue;
+      if (!detail::McBuilder::has_crossing(sv, pad)) continue;
       chunks[ch].add_cell(c.i, c.j, c.k, sv, pad);
     }
   });
-  mc::McBuilder builder;
-  for (const mc::McBuilder& chunk : chunks) builder.append(chunk);
+  detail::McBuilder builder;
+  for (const detail::McBuilder& chunk : chunks) builder.append(chunk);
   r.mesh = builder.finish(s.box_min, voxel, &r.mc);
   r.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return r;

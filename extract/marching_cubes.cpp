@@ -27,8 +27,8 @@ Mesh marching_cubes(const DenseGrid& grid, const MarchingCubesSettings& settings
   const double iso = settings.iso;
   const int lo = settings.close_boundary ? -1 : 0;
   const int hx = grid.nx - 1, hy = grid.ny - 1, hz = grid.nz - 1;  // last cell index + 1 when padded
-  mc::McBuilder builder;
-  double s[mc::kCorners];
+  detail::McBuilder builder;
+  double s[detail::kCorners];
   for (int k = lo; k < (settings.close_boundary ? hz + 1 : hz); ++k)
     for (int j = lo; j < (settings.close_boundary ? hy + 1 : hy); ++j)
       for (int i = lo; i < (settings.close_boundary ? hx + 1 : hx); ++i) {
@@ -47,17 +47,17 @@ Mesh marching_cubes(const DenseGrid& grid, const MarchingCubesSettings& settings
           s[6] = double(v[base + dz + dy]) - iso;
           s[7] = double(v[base + dz + dy + 1]) - iso;
         } else {
-          for (int c = 0; c < mc::kCorners; ++c) {
+          for (int c = 0; c < detail::kCorners; ++c) {
             const int ci = i + (c & 1), cj = j + ((c >> 1) & 1), ck = k + ((c >> 2) & 1);
             if (ci < 0 || cj < 0 || ck < 0 || ci >= grid.nx || cj >= grid.ny || ck >= grid.nz) {
               pad |= 1u << c;
-              s[c] = mc::kPadValue;
+              s[c] = detail::kPadValue;
             } else {
               s[c] = double(grid.at(ci, cj, ck)) - iso;
             }
           }
         }
-        if (!mc::McBuilder::has_crossing(s, pad)) continue;
+        if (!detail::McBuilder::has_crossing(s, pad)) continue;
         builder.add_cell(i, j, k, s, pad);
       }
   return builder.finish(grid.origin, grid.voxel, stats);

@@ -19,7 +19,7 @@ namespace {
 struct BandCell {
   uint64_t order;
   int i, j, k;
-  std::array<float, mc::kCorners> v;
+  std::array<float, detail::kCorners> v;
 };
 
 constexpr int kMaxIndex = (1 << 19) - 4;
@@ -61,7 +61,7 @@ Mesh marching_cubes(const openvdb::FloatGrid& grid_in, const MarchingCubesSettin
       BandCell cell{order_key(c.x(), c.y(), c.z()), c.x(), c.y(), c.z(), {}};
       bool known = true;
       int inside = 0;
-      for (int corner = 0; corner < mc::kCorners && known; ++corner) {
+      for (int corner = 0; corner < detail::kCorners && known; ++corner) {
         const openvdb::Coord q = c.offsetBy(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
         float v;
         known = acc.probeValue(q, v);
@@ -70,13 +70,13 @@ Mesh marching_cubes(const openvdb::FloatGrid& grid_in, const MarchingCubesSettin
         cell.v[corner] = v;
         inside += (double(v) - iso < 0) ? 1 : 0;
       }
-      if (known && inside != 0 && inside != mc::kCorners) cells.push_back(cell);
+      if (known && inside != 0 && inside != detail::kCorners) cells.push_back(cell);
     }
   std::sort(cells.begin(), cells.end(), [](const BandCell& a, const BandCell& b) { return a.order < b.order; });
-  mc::McBuilder builder;
-  double s[mc::kCorners];
+  detail::McBuilder builder;
+  double s[detail::kCorners];
   for (const BandCell& cell : cells) {
-    for (int corner = 0; corner < mc::kCorners; ++corner) s[corner] = double(cell.v[corner]) - iso;
+    for (int corner = 0; corner < detail::kCorners; ++corner) s[corner] = double(cell.v[corner]) - iso;
     builder.add_cell(cell.i, cell.j, cell.k, s, 0);
   }
   const openvdb::math::Transform& xf = grid->transform();

@@ -11,7 +11,7 @@
 #include <set>
 #include <unordered_map>
 
-namespace sdfkit::mc {
+namespace sdfkit::detail {
 namespace {
 
 // ---- cube geometry ------------------------------------------------------------------------------------------
@@ -544,4 +544,4 @@ Mesh McBuilder::finish(const std::function<Vec3(const Vec3&)>& index_to_world, M
 
 TableStats table_stats() { return table().stats; }
 
-}  // namespace sdfkit::mc
+}  // namespace sdfkit::detail

@@ -26,7 +26,7 @@
 #include <functional>
 #include <vector>
 
-namespace sdfkit::mc {
+namespace sdfkit::detail {
 
 /// Corner c of a cell is at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1) from its minimum corner.
 constexpr int kCorners = 8;
@@ -97,4 +97,4 @@ struct TableStats {
 };
 TableStats table_stats();
 
-}  // namespace sdfkit::mc
+}  // namespace sdfkit::detail

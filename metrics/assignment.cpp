@@ -14,7 +14,7 @@
 #include <queue>
 #include <string>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 namespace {
 
@@ -360,9 +360,9 @@ void SparseAuction::solve(double eps_start, double eps_final, double factor) {
   }
 }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 SparseShortestPath::SparseShortestPath(int n) : SparseShortestPath(EdgeRows(n)) {}
 
@@ -491,4 +491,4 @@ void SparseShortestPath::solve() {
     if (col_of_row_[i] < 0) augment(i);
 }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 /// Rows -> columns of a minimum-cost perfect assignment of a square cost matrix (n <= a few thousand: O(n^3)).
 /// `total`, when given, receives the summed cost. Throws InvalidInput if the matrix is not square or not finite.
@@ -95,9 +95,9 @@ class SparseAuction {
   std::vector<double> bid_eps_;  // eps of each row's last bid (infinity: never, or edges added since)
 };
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 /// Exact minimum-cost perfect assignment on a sparse bipartite graph by successive shortest augmenting paths
 /// (Dijkstra on reduced costs with column potentials, as in Jonker-Volgenant). Invariant, with the prices
@@ -150,4 +150,4 @@ class SparseShortestPath {
   int search_ = 0;
 };
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

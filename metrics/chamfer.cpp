@@ -7,7 +7,7 @@
 
 #include <cmath>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 double f_from_pr(double precision, double recall) {
   return precision + recall > 0 ? 2 * precision * recall / (precision + recall) : 0.0;
@@ -70,4 +70,4 @@ std::vector<FScore> fscores(const Points& pred, const Points& gt, const std::vec
   return PairEvaluator(pred, gt).fscores(thresholds);
 }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -13,7 +13,7 @@
 #include <memory>
 #include <vector>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 struct ChamferResult {
   double accuracy = 0;         ///< mean pred -> gt distance
@@ -68,4 +68,4 @@ class PairEvaluator {
 ChamferResult chamfer(const Points& pred, const Points& gt);
 std::vector<FScore> fscores(const Points& pred, const Points& gt, const std::vector<double>& thresholds);
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

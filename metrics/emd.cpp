@@ -20,7 +20,7 @@
 #include <numeric>
 #include <tuple>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 namespace {
 
 void check_pair(const Points& a, const Points& b) {
@@ -549,4 +549,4 @@ EmdResult emd_approx(const Points& a, const Points& b) {
   return r;
 }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

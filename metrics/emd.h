@@ -29,7 +29,7 @@
 #include <string>
 #include <vector>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 enum class EmdMethod { kExact, kApprox };
 /// "exact" / "approx" <-> EmdMethod; InvalidInput on anything else.
@@ -63,4 +63,4 @@ EmdResult emd_approx(const Points& a, const Points& b);
 /// The dense O(n^3) Hungarian method on the full distance matrix (reference and benchmark baseline).
 EmdResult emd_hungarian(const Points& a, const Points& b);
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -14,7 +14,7 @@
 #include <cmath>
 #include <limits>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 namespace {
 
 constexpr int kMaxRing = 5;  // cells up to this many cells away are searched; farther answers come from the KD-tree
@@ -296,4 +296,4 @@ void NearestGrid::nearest(const Points& queries, Eigen::VectorXi& index, Eigen::
 
 long NearestGrid::fallback_count() const { return fallbacks_.load(std::memory_order_relaxed); }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -24,7 +24,7 @@
 #include <utility>
 #include <vector>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 class NearestGrid {
  public:
@@ -77,4 +77,4 @@ class NearestGrid {
   mutable std::atomic<long> fallbacks_{0};
 };
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -8,7 +8,7 @@
 #include <array>
 #include <cmath>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 namespace {
 
 void check_mesh(const Mesh& mesh, const std::string& what) {
@@ -157,4 +157,4 @@ PointIou point_iou(const Mesh& pred, const Mesh& gt, uint64_t seed, const PointI
   return r;
 }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

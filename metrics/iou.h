@@ -12,7 +12,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 /// Grid of `resolution`^3 cells; a point v falls in cell floor((v - origin) / extent * resolution) per axis.
 /// Defaults are DISN's indexing: (v + 1.1) / 2.4 * 110, i.e. cells of 2.4/110 covering [-1.1, 1.3)^3 of the
@@ -58,4 +58,4 @@ struct PointIou {
 /// contains both shapes, the ratio is an unbiased estimate of the volume IoU whatever the padding.
 PointIou point_iou(const Mesh& pred, const Mesh& gt, uint64_t seed, const PointIouSettings& settings = {});
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -11,7 +11,7 @@
 #include <cmath>
 #include <limits>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 namespace {
 
 struct RowsAdaptor {
@@ -170,4 +170,4 @@ void KdTree::knn_batch(const Points& queries, int k, std::vector<uint32_t>& inde
   });
 }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 class KdTree {
  public:
@@ -52,4 +52,4 @@ class KdTree {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 namespace {
 
 Points unit_rows(const Points& n, Eigen::Index expected, const std::string& what) {
@@ -40,4 +40,4 @@ NormalConsistency normal_consistency(const Points& pred, const Points& pred_norm
   return normal_consistency(PairEvaluator(pred, gt), pred_normals, gt_normals);
 }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -7,7 +7,7 @@
 #include "core/types.h"
 #include "metrics/chamfer.h"
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 struct NormalConsistency {
   double accuracy = 0;      ///< mean |n_pred . n_nearest_gt| over predicted samples
@@ -23,4 +23,4 @@ NormalConsistency normal_consistency(const PairEvaluator& pair, const Points& pr
 NormalConsistency normal_consistency(const Points& pred, const Points& pred_normals, const Points& gt,
                                      const Points& gt_normals);
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

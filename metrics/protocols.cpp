@@ -13,7 +13,7 @@
 #include <cmath>
 #include <sstream>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 namespace {
 
 std::string percent_key(const char* prefix, double pct) {
@@ -201,4 +201,4 @@ EvalResult evaluate(const Mesh& pred, const Mesh& gt, const ProtocolSettings& se
   return r;
 }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 enum class Protocol { kDisn, kOnet, kTmnet };
 Protocol parse_protocol(const std::string& name);  ///< InvalidInput on an unknown name
@@ -76,4 +76,4 @@ const std::vector<double>& disn_threshold_percents();
 /// non-finite coordinates.
 EvalResult evaluate(const Mesh& pred, const Mesh& gt, const ProtocolSettings& settings = {});
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

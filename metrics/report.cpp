@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <sstream>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 namespace {
 
 std::string fmt(const std::optional<double>& v) {
@@ -166,4 +166,4 @@ Json summary_json(const Summary& s, const std::vector<ShapeRecord>& records) {
   return {{"protocol", to_string(s.protocol)}, {"categories", cats}, {"mean", column(s.mean)}, {"problems", problems}};
 }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 struct ShapeRecord {
   std::string category, shape;
@@ -45,4 +45,4 @@ std::string per_shape_csv(const std::vector<ShapeRecord>& records, Protocol prot
 std::string markdown_table(const Summary& summary);
 Json summary_json(const Summary& summary, const std::vector<ShapeRecord>& records);
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

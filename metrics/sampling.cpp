@@ -8,7 +8,7 @@
 #include <numeric>
 #include <vector>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 void require_finite_points(const Points& points, const std::string& what) {
   require(points.rows() > 0, what + ": no points");
@@ -105,4 +105,4 @@ Points sample_cloud(const Points& points, long n, uint64_t seed, CloudSampling* 
   return out;
 }
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

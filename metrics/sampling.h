@@ -6,7 +6,7 @@
 
 #include <cstdint>
 
-namespace sdfkit::metrics {
+namespace sdfkit {
 
 /// Points on a surface and, for surface samples, the unit normal of the face each point lies on.
 struct SurfaceSamples {
@@ -44,4 +44,4 @@ Points sample_cloud(const Points& points, long n, uint64_t seed, CloudSampling* 
 /// Throws InvalidInput naming `what` if `points` is empty or holds a non-finite coordinate.
 void require_finite_points(const Points& points, const std::string& what);
 
-}  // namespace sdfkit::metrics
+}  // namespace sdfkit

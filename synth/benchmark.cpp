@@ -23,7 +23,7 @@
 
 namespace fs = std::filesystem;
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 uint64_t shape_seed(uint64_t seed, size_t category, int index) {
   return Rng::derived(seed, (static_cast<uint64_t>(category + 1) << 32) | static_cast<uint32_t>(index)).next();
@@ -195,4 +195,4 @@ SynthSummary write_benchmark(const std::string& dir, const SynthSettings& settin
   return sum;
 }
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

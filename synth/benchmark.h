@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 struct SynthSettings {
   int per_category = 3;                 ///< shapes per category (presets: ci = 3, full = 100)
@@ -63,4 +63,4 @@ struct SynthSummary {
 /// Throws InvalidInput for bad settings or a foreign non-empty `dir`, IoError when writing fails.
 SynthSummary write_benchmark(const std::string& dir, const SynthSettings& settings, const ProgressFn& progress = {});
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

@@ -5,7 +5,7 @@
 
 #include <algorithm>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 const std::vector<Category>& categories() {
   static const std::vector<Category> list = {
@@ -71,4 +71,4 @@ const std::vector<Vec3f> paint = {{0.75f, 0.1f, 0.1f}, {0.1f, 0.25f, 0.6f}, {0.9
 const std::vector<Vec3f> light = {{0.95f, 0.93f, 0.85f}, {0.98f, 0.9f, 0.6f}, {0.9f, 0.95f, 1.0f}};
 }  // namespace palette
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

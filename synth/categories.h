@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 struct Category {
   std::string synset;  ///< ShapeNet synset id, e.g. "03001627"
@@ -26,4 +26,4 @@ size_t category_index(const std::string& name_or_synset);
 /// Units are metre-like; +y is up, the floor is y = 0 for standing objects and the front faces +z.
 SynthShape generate_shape(size_t category, uint64_t seed);
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

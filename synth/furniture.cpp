@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 namespace {
 
 /// A leg from floor point `foot` up to `top`, in one of several styles (0 square bar, 1 cylinder, 2 tapered).
@@ -582,4 +582,4 @@ SynthShape make_cabinet(Gen& g) {
   return g.b.build();
 }
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 /// Random choices and part collection for one shape.
 struct Gen {
@@ -47,4 +47,4 @@ SynthShape make_table(Gen& g);
 SynthShape make_phone(Gen& g);
 SynthShape make_watercraft(Gen& g);
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 // ------------------------------------------------------------------------------------------------ display
 SynthShape make_display(Gen& g) {
@@ -466,4 +466,4 @@ SynthShape make_phone(Gen& g) {
   return g.b.build();
 }
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

@@ -9,7 +9,7 @@
 #include <map>
 #include <tuple>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 namespace {
 
 using Tri = std::array<int32_t, 3>;
@@ -318,4 +318,4 @@ std::vector<Vec3> arc(const Vec3& center, const Vec3& u, const Vec3& v, double r
   return out;
 }
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

@@ -9,7 +9,7 @@
 #include <array>
 #include <vector>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 /// Rotations about the coordinate axes (radians, right-handed).
 Mat3 rot_x(double angle);
@@ -55,4 +55,4 @@ std::vector<Vec3> bezier(const Vec3& p0, const Vec3& p1, const Vec3& p2, const V
 /// `n` >= 2 points on a circular arc around `center` from angle a0 to a1 in the plane spanned by unit `u`, `v`.
 std::vector<Vec3> arc(const Vec3& center, const Vec3& u, const Vec3& v, double radius, double a0, double a1, int n);
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

@@ -2,7 +2,7 @@
 
 #include "core/error.h"
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 void ShapeBuilder::add(const std::string& name, const Mesh& part, const Vec3f& color) {
   require(!part.empty(), "ShapeBuilder::add: part '" + name + "' is empty");
@@ -48,4 +48,4 @@ Mesh part_mesh(const SynthShape& shape, size_t i) {
   return m;
 }
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

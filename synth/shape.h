@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 /// One closed part of a shape: its role name (e.g. "back_slat", "leg") and its vertex and face ranges.
 struct PartInfo {
@@ -38,4 +38,4 @@ class ShapeBuilder {
 /// The faces of part `i` of `shape` as a mesh of its own (vertex indices rebased to the part).
 Mesh part_mesh(const SynthShape& shape, size_t i);
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

@@ -11,7 +11,7 @@
 
 #include <algorithm>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 Image contact_sheet(const SynthSettings& settings, const SheetSettings& sheet) {
   require(sheet.per_category >= 1 && sheet.cell >= 16 && sheet.cell <= 2048 && sheet.label_width >= 0,
@@ -67,4 +67,4 @@ void write_contact_sheet(const std::string& path, const SynthSettings& settings,
   write_image(path, contact_sheet(settings, sheet));
 }
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

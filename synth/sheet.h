@@ -7,7 +7,7 @@
 
 #include <string>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 struct SheetSettings {
   int per_category = 6;       ///< K: shapes shown per category (fewer when the benchmark has fewer)
@@ -26,4 +26,4 @@ Image contact_sheet(const SynthSettings& settings, const SheetSettings& sheet = 
 /// contact_sheet() written to `path` (.png recommended).
 void write_contact_sheet(const std::string& path, const SynthSettings& settings, const SheetSettings& sheet = {});
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-namespace sdfkit::synth {
+namespace sdfkit {
 
 // ------------------------------------------------------------------------------------------------ car
 SynthShape make_car(Gen& g) {
@@ -501,4 +501,4 @@ SynthShape make_watercraft(Gen& g) {
   return g.b.build();
 }
 
-}  // namespace sdfkit::synth
+}  // namespace sdfkit

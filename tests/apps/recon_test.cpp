@@ -27,9 +27,9 @@ using Run = test::CliRun;
 Run run(const std::string& args) { return test::run_sdfkit(args); }
 
 double iou_of(const std::string& pred, const std::string& gt) {
-  metrics::ProtocolSettings ps;
+  ProtocolSettings ps;
   ps.with_emd = false;
-  return metrics::evaluate(read_mesh(pred), read_mesh(gt), ps).get("iou").value_or(0.0) / 100.0;
+  return evaluate(read_mesh(pred), read_mesh(gt), ps).get("iou").value_or(0.0) / 100.0;
 }
 
 bool have_models() {

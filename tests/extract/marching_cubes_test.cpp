@@ -42,7 +42,7 @@ void check_clean_closed(const Mesh& m) {
 }  // namespace
 
 TEST_CASE("case table: sizes, and loops that need a centre vertex are the exception") {
-  const auto st = mc::table_stats();
+  const auto st = detail::table_stats();
   // 256 cases, plus one extra entry per combination of ambiguous-face decisions.
   CHECK(st.entries > 256);
   CHECK(st.entries_with_centre_vertex > 0);               // e.g. the saddle strip below
@@ -213,22 +213,22 @@ TEST_CASE("builders of consecutive chunks, appended in order, give exactly the s
     for (int k = 0; k + 1 < n; ++k)
       for (int j = 0; j + 1 < n; ++j)
         for (int i = 0; i + 1 < n; ++i) cells.push_back({i, j, k});
-    auto add = [&](mc::McBuilder& b, const std::array<int, 3>& c) {
-      double s[mc::kCorners];
-      for (int corner = 0; corner < mc::kCorners; ++corner)
+    auto add = [&](detail::McBuilder& b, const std::array<int, 3>& c) {
+      double s[detail::kCorners];
+      for (int corner = 0; corner < detail::kCorners; ++corner)
         s[corner] = at(c[0] + (corner & 1), c[1] + ((corner >> 1) & 1), c[2] + ((corner >> 2) & 1));
       b.add_cell(c[0], c[1], c[2], s);
     };
-    mc::McBuilder serial;
+    detail::McBuilder serial;
     for (const auto& c : cells) add(serial, c);
     MarchingCubesStats serial_stats;
     const Mesh expected = serial.finish(Vec3(0.5, -1, 2), 0.25, &serial_stats);
     REQUIRE(expected.F.rows() > 0);
     for (size_t chunk : {size_t(1), size_t(7), size_t(50), cells.size()}) {
       INFO("seed " << seed << ", chunk " << chunk);
-      mc::McBuilder joined;
+      detail::McBuilder joined;
       for (size_t begin = 0; begin < cells.size(); begin += chunk) {
-        mc::McBuilder part;
+        detail::McBuilder part;
         for (size_t c = begin; c < std::min(cells.size(), begin + chunk); ++c) add(part, cells[c]);
         joined.append(part);
       }

@@ -11,7 +11,6 @@
 #include <numeric>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
 
 namespace {
 

@@ -8,8 +8,7 @@
 #include <cmath>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
-using namespace sdfkit::metrics::testing;
+using namespace sdfkit::testing;
 
 TEST_CASE("Chamfer distances and F-scores match brute force on random clouds") {
   const Points a = random_cloud(700, 11);

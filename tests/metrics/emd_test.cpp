@@ -12,8 +12,7 @@
 #include <numeric>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
-using namespace sdfkit::metrics::testing;
+using namespace sdfkit::testing;
 
 namespace {
 

@@ -11,8 +11,7 @@
 #include <cmath>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
-using namespace sdfkit::metrics::testing;
+using namespace sdfkit::testing;
 
 namespace {
 

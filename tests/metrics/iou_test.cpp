@@ -9,7 +9,6 @@
 #include <cmath>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
 
 namespace {
 

@@ -10,8 +10,7 @@
 #include <tbb/global_control.h>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
-using namespace sdfkit::metrics::testing;
+using namespace sdfkit::testing;
 
 TEST_CASE("KD-tree nearest and knn agree with brute force") {
   const Points set = random_cloud(3000, 1);

@@ -9,7 +9,6 @@
 #include <cmath>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
 
 TEST_CASE("normal consistency: hand-computed example, sign-blind, and 1 for the same sphere") {
   // pred: two points with normals +z and +x; gt: one point (near the first) with normal (0, 0, -1).

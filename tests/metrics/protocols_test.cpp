@@ -10,7 +10,6 @@
 #include <cmath>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
 
 namespace {
 

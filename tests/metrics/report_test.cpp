@@ -5,7 +5,6 @@
 #include <doctest/doctest.h>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
 
 namespace {
 

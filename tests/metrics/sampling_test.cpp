@@ -10,7 +10,6 @@
 #include <set>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
 
 TEST_CASE("surface samples lie on the surface, carry the face normal, and are deterministic") {
   const Mesh sphere = make_icosphere(Vec3(0.2, -0.1, 0.3), 0.7, 3);

@@ -11,8 +11,7 @@
 #include <string>
 
 using namespace sdfkit;
-using namespace sdfkit::metrics;
-using namespace sdfkit::metrics::testing;
+using namespace sdfkit::testing;
 
 namespace {
 

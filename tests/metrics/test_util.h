@@ -7,7 +7,7 @@
 #include <limits>
 #include <utility>
 
-namespace sdfkit::metrics::testing {
+namespace sdfkit::testing {
 
 inline Points random_cloud(long n, uint64_t seed, double scale = 1.0) {
   Rng rng(seed);
@@ -31,4 +31,4 @@ inline std::pair<int, double> brute_nearest(const Points& set, const Eigen::RowV
   return {best, best_d2};
 }
 
-}  // namespace sdfkit::metrics::testing
+}  // namespace sdfkit::testing

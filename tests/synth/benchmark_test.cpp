@@ -15,7 +15,6 @@
 #include <unistd.h>
 
 using namespace sdfkit;
-using namespace sdfkit::synth;
 namespace fs = std::filesystem;
 
 namespace {

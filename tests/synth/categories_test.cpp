@@ -11,7 +11,6 @@
 #include <set>
 
 using namespace sdfkit;
-using namespace sdfkit::synth;
 
 namespace {
 
@@ -55,7 +54,7 @@ TEST_CASE("every category generates closed, outward-facing, coloured parts at ma
       for (size_t i = 0; i < s.parts.size(); ++i) {
         const Mesh part = part_mesh(s, i);
         CAPTURE(s.parts[i].name);
-        CHECK(synth::test::closed_and_oriented(part));
+        CHECK(test::closed_and_oriented(part));
         CHECK(signed_volume(part) > 0);
         // One colour per part.
         CHECK((part.colors.rowwise() - part.colors.row(0)).cwiseAbs().maxCoeff() == 0.0f);
@@ -160,7 +159,7 @@ TEST_CASE("chair slats are thin: below 2 voxels at 64^3, above 1 voxel at 256^3"
     const Normalization n = unit_sphere_normalization(s.mesh);
     double w = 1e300;
     for (size_t i = 0; i < s.parts.size(); ++i)
-      if (s.parts[i].name == "back_slat") w = std::min(w, synth::test::min_width(part_mesh(s, i)) / n.radius);
+      if (s.parts[i].name == "back_slat") w = std::min(w, test::min_width(part_mesh(s, i)) / n.radius);
     if (w == 1e300) continue;
     ++chairs_with_slats;
     CAPTURE(seed);

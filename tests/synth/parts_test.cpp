@@ -9,9 +9,8 @@
 #include <cmath>
 
 using namespace sdfkit;
-using namespace sdfkit::synth;
-using synth::test::closed_and_oriented;
-using synth::test::min_width;
+using test::closed_and_oriented;
+using test::min_width;
 
 namespace {
 void check_part(const Mesh& m, double expected_volume, double rel_tol) {

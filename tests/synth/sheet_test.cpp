@@ -5,7 +5,6 @@
 #include <doctest/doctest.h>
 
 using namespace sdfkit;
-using namespace sdfkit::synth;
 
 namespace {
 bool white(const Image& im, int x, int y) {

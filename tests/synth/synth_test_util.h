@@ -7,7 +7,7 @@
 #include <map>
 #include <utility>
 
-namespace sdfkit::synth::test {
+namespace sdfkit::test {
 
 /// True when every directed edge occurs exactly once and its reverse exactly once: the part is closed
 /// (every edge shared by two faces) and consistently oriented.
@@ -37,4 +37,4 @@ inline double min_width(const Mesh& m) {
   return best;
 }
 
-}  // namespace sdfkit::synth::test
+}  // namespace sdfkit::test
