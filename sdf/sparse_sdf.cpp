@@ -247,12 +247,26 @@ std::vector<std::unique_ptr<LeafT>> exact_band_leaves(const Mesh& mesh, const Me
   return built;
 }
 
+/// Calls unite(i, j) for every pair of face-adjacent voxels of one leaf (leaf-local indices, x-major) between which
+/// no surface can pass: v[i] + v[j] > safe. Both sign stages join a leaf's voxels by this rule, in this order.
+template <class Unite>
+void unite_inside_leaf(const float* v, float safe, Unite&& unite) {
+  constexpr int32_t D = LeafT::DIM;
+  for (int32_t x = 0; x < D; ++x)
+    for (int32_t y = 0; y < D; ++y)
+      for (int32_t z = 0; z < D; ++z) {
+        const int32_t i = (x * D + y) * D + z;
+        if (z + 1 < D && v[i] + v[i + 1] > safe) unite(i, i + 1);
+        if (y + 1 < D && v[i] + v[i + D] > safe) unite(i, i + D);
+        if (x + 1 < D && v[i] + v[i + D * D] > safe) unite(i, i + D * D);
+      }
+}
+
 /// Stage 2a, signs leaf by leaf for the leaves `which`: the components of voxels with no surface between them
 /// inside the leaf, each probed (classify_components). Robust where the w = 0.5 set is not tied to the surface
 /// (open meshes), at the price of probes in every leaf. Writes inside_all[leaf * 512 + voxel].
 void signs_per_leaf(const std::vector<LeafT*>& leaves, const std::vector<int32_t>& which, const BandGrid& g,
                     const InsideMeasure& wn, std::vector<char>& inside_all, std::atomic<long>& evaluations) {
-  constexpr int32_t D = LeafT::DIM;
   constexpr auto S = static_cast<int32_t>(LeafT::SIZE);
   const float safe = g.no_surface_sum();
   tbb::parallel_for(tbb::blocked_range<size_t>(0, which.size(), 4), [&](const auto& range) {
@@ -264,14 +278,7 @@ void signs_per_leaf(const std::vector<LeafT*>& leaves, const std::vector<int32_t
       const LeafT& leaf = *leaves[li];
       uf.reset(LeafT::SIZE);
       const float* v = leaf.buffer().data();
-      for (int32_t x = 0; x < D; ++x)
-        for (int32_t y = 0; y < D; ++y)
-          for (int32_t z = 0; z < D; ++z) {
-            const int32_t i = (x * D + y) * D + z;
-            if (z + 1 < D && v[i] + v[i + 1] > safe) uf.unite(i, i + 1);
-            if (y + 1 < D && v[i] + v[i + D] > safe) uf.unite(i, i + D);
-            if (x + 1 < D && v[i] + v[i + D * D] > safe) uf.unite(i, i + D * D);
-          }
+      unite_inside_leaf(v, safe, [&uf](int32_t i, int32_t j) { uf.unite(i, j); });
       // Preferred probe per component: the member farthest from the surface (most robust).
       for (int32_t i = 0; i < S; ++i) best[i] = -1;
       for (int32_t i = 0; i < S; ++i) {
@@ -307,14 +314,7 @@ void signs_by_band_components(const std::vector<LeafT*>& leaves, const BandGrid&
     for (size_t li = range.begin(); li != range.end(); ++li) {
       const float* v = leaves[li]->buffer().data();
       const auto base = static_cast<int32_t>(li * S);
-      for (int32_t x = 0; x < D; ++x)
-        for (int32_t y = 0; y < D; ++y)
-          for (int32_t z = 0; z < D; ++z) {
-            const int32_t i = (x * D + y) * D + z;
-            if (z + 1 < D && v[i] + v[i + 1] > safe) unite(base + i, base + i + 1);
-            if (y + 1 < D && v[i] + v[i + D] > safe) unite(base + i, base + i + D);
-            if (x + 1 < D && v[i] + v[i + D * D] > safe) unite(base + i, base + i + D * D);
-          }
+      unite_inside_leaf(v, safe, [&unite, base](int32_t i, int32_t j) { unite(base + i, base + j); });
     }
   });
   std::unordered_map<uint64_t, int32_t> leaf_at;
