@@ -35,7 +35,7 @@ std::string shape_id(size_t category, int index) {
   return categories().at(category).name + buf;
 }
 
-std::vector<ShapeEntry> plan_benchmark(const SynthSettings& s) {
+std::vector<PlannedShape> plan_benchmark(const SynthSettings& s) {
   require(s.per_category >= 1 && s.per_category <= 100000,
           "synth: --per-category must be between 1 and 100000 (got " + std::to_string(s.per_category) + ")");
   require(s.jobs >= 0, "synth: --jobs must be >= 0");
@@ -49,7 +49,7 @@ std::vector<ShapeEntry> plan_benchmark(const SynthSettings& s) {
     for (const auto& name : s.categories) chosen.insert(category_index(name));
     cats.assign(chosen.begin(), chosen.end());
   }
-  std::vector<ShapeEntry> out;
+  std::vector<PlannedShape> out;
   for (const size_t c : cats)
     for (int i = 0; i < s.per_category; ++i) out.push_back({c, i, shape_id(c, i), shape_seed(s.seed, c, i)});
   return out;
@@ -116,7 +116,7 @@ std::vector<fs::path> stale_files(const fs::path& dir, const std::set<std::strin
 }  // namespace
 
 SynthSummary write_benchmark(const std::string& dir, const SynthSettings& settings, const ProgressFn& progress) {
-  const std::vector<ShapeEntry> plan = plan_benchmark(settings);
+  const std::vector<PlannedShape> plan = plan_benchmark(settings);
   const fs::path root(dir);
   std::set<std::string> keep;
   for (const auto& e : plan) keep.insert(categories()[e.category].name + "/" + e.id + ".ply");
@@ -133,7 +133,7 @@ SynthSummary write_benchmark(const std::string& dir, const SynthSettings& settin
     tbb::parallel_for(size_t(0), plan.size(), [&](size_t i) {
       if (cancelled.load()) return;
       try {
-        const ShapeEntry& e = plan[i];
+        const PlannedShape& e = plan[i];
         const SynthShape shape = generate_shape(e.category, e.seed);
         write_mesh((root / categories()[e.category].name / (e.id + ".ply")).string(), shape.mesh);
         faces[i] = static_cast<long>(shape.mesh.F.rows());

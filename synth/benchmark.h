@@ -23,7 +23,7 @@ struct SynthSettings {
 };
 
 /// One shape of the benchmark.
-struct ShapeEntry {
+struct PlannedShape {
   size_t category = 0;  ///< index into categories()
   int index = 0;        ///< 0-based index within the category
   std::string id;       ///< "<name>_<index, 4 digits>", e.g. "chair_0007" (the PLY's file stem)
@@ -37,7 +37,7 @@ uint64_t shape_seed(uint64_t seed, size_t category, int index);
 std::string shape_id(size_t category, int index);
 
 /// The shapes `settings` asks for, in category order (DISN's Table 1) then index order.
-std::vector<ShapeEntry> plan_benchmark(const SynthSettings& settings);
+std::vector<PlannedShape> plan_benchmark(const SynthSettings& settings);
 
 /// Indices 0..n-1 of one category split into train / val / test: a seeded shuffle, then 80% / 10% / 10%
 /// (rounded; val and test get at least one shape each when n >= 3, test gets one when n == 2). Each list is

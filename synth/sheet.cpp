@@ -20,7 +20,7 @@ Image contact_sheet(const SynthSettings& settings, const SheetSettings& sheet) {
   SynthSettings s = settings;
   s.per_category = std::min(settings.per_category, sheet.per_category);
   s.split_base = 0;  // the sheet shows shapes, not splits
-  const std::vector<ShapeEntry> plan = plan_benchmark(s);
+  const std::vector<PlannedShape> plan = plan_benchmark(s);
   std::vector<size_t> rows;
   for (const auto& e : plan)
     if (rows.empty() || rows.back() != e.category) rows.push_back(e.category);
@@ -30,7 +30,7 @@ Image contact_sheet(const SynthSettings& settings, const SheetSettings& sheet) {
   RenderSettings rs;
   rs.supersampling = sheet.supersampling;
   tbb::parallel_for(size_t(0), plan.size(), [&](size_t k) {
-    const ShapeEntry& e = plan[k];
+    const PlannedShape& e = plan[k];
     const SynthShape shape = generate_shape(e.category, e.seed);
     const Mesh m = apply_normalization(shape.mesh, unit_sphere_normalization(shape.mesh));
     const Image rgba = MeshRenderer(m, rs).render(cam).rgba;
