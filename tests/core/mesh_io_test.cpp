@@ -12,6 +12,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <tuple>
+#include <vector>
 
 using namespace sdfkit;
 namespace fs = std::filesystem;
@@ -104,6 +106,47 @@ TEST_CASE("GLB: a container whose lengths do not fit the file is refused before 
       CHECK_MESSAGE(msg.find(cases[i].second) != std::string::npos, msg);
     }
   }
+}
+
+TEST_CASE("glTF: only JSON that names glTF version 2 reaches assimp, in .gltf files and GLB chunks") {
+  // Found by scripts/fuzz gltf: a 41-byte .gltf that is not JSON; assimp's glTF importer declined it and another
+  // importer, tried on its content, read past its buffer.
+  const fs::path dir = test::scratch_dir("core_gltf_json");
+  fs::create_directories(dir);
+  const std::string fuzzed("objsse?\": {\x9d\"vt\0;\0@\x01\0vertexarray (attrib:", 41);
+  const auto glb = [](const std::string& json) {
+    std::string b = "glTF";
+    const auto put = [&b](uint32_t v) { b.append(reinterpret_cast<const char*>(&v), 4); };
+    put(2);
+    put(static_cast<uint32_t>(12 + 8 + json.size()));
+    put(static_cast<uint32_t>(json.size()));
+    b += "JSON";
+    return b + json;
+  };
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
+      {"gltf", fuzzed, "not a glTF file (the file is not a JSON object)"},
+      {"gltf", "[1, 2]", "not a glTF file (the file is not a JSON object)"},
+      {"gltf", R"({"scenes": []})", "not a glTF file (no asset.version)"},
+      {"gltf", R"({"asset": {"version": 2}})", "not a glTF file (no asset.version)"},
+      {"gltf", R"({"asset": {"version": "1.0"}})", "glTF version '1.0' (only version 2 is read)"},
+      {"glb", glb("{\"asset\": "), "not a glTF file (its JSON chunk is not a JSON object)"},
+      {"glb", glb(R"({"asset": {"version": "1.0"}})"), "glTF version '1.0' (only version 2 is read)"},
+  };
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const auto& [ext, bytes, expected] = cases[i];
+    CAPTURE(i);
+    const std::string path = (dir / ("bad" + std::to_string(i) + "." + ext)).string();
+    write_text_atomic(path, bytes);
+    try {
+      (void)read_mesh(path);
+      FAIL("accepted");
+    } catch (const IoError& e) {
+      const std::string msg = e.what();
+      CHECK(msg.rfind(path + ": ", 0) == 0);
+      CHECK_MESSAGE(msg.find(expected) != std::string::npos, msg);
+    }
+  }
+  fs::remove_all(dir);
 }
 
 TEST_CASE("glTF: a tetrahedron reads with its faces and its material's base colour") {
