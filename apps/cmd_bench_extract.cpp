@@ -3,8 +3,8 @@
 // an analytic chair (union of box SDFs: seat, four thin legs, a back of two posts, a top rail and slats), at
 // several resolutions. Reports evaluations, median wall times, whether the meshes are identical, the Chamfer
 // distance between them and their distance to the analytic surface. Results: docs/benchmarks/extract.md.
-#include "apps/bench_util.h"
 #include "apps/command.h"
+#include "bench/timing.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
@@ -29,9 +29,6 @@
 namespace sdfkit::app {
 namespace {
 
-using bench::Clock;
-using bench::median;
-using bench::seconds_since;
 
 
 struct BoxPart {
@@ -118,22 +115,22 @@ std::function<int()> setup_bench_extract(CLI::App& app) {
         DenseGrid grid;
         Mesh dense;
         for (int r = 0; r < o->runs; ++r) {
-          auto t0 = Clock::now();
+          auto t0 = BenchClock::now();
           grid = sample_dense(field, s);
           t_eval.push_back(seconds_since(t0));
-          t0 = Clock::now();
+          t0 = BenchClock::now();
           dense = marching_cubes(grid, {0.0, true});
           t_mc.push_back(seconds_since(t0));
         }
         // Sparse: marching cubes over a narrow band (built once from the dense samples; the band's values are
         // what `prep` stores in sdf.vdb).
-        auto t0 = Clock::now();
+        auto t0 = BenchClock::now();
         const BandGrid band = BandGrid::from_dense(grid, o->band);
         const double band_build = seconds_since(t0);
         std::vector<double> t_sparse;
         Mesh sparse;
         for (int r = 0; r < o->runs; ++r) {
-          t0 = Clock::now();
+          t0 = BenchClock::now();
           sparse = band.extract({0.0, false});
           t_sparse.push_back(seconds_since(t0));
         }
@@ -141,7 +138,7 @@ std::function<int()> setup_bench_extract(CLI::App& app) {
         std::vector<double> t_adaptive;
         ExtractResult adaptive;
         for (int r = 0; r < o->runs; ++r) {
-          t0 = Clock::now();
+          t0 = BenchClock::now();
           adaptive = adaptive_extract(field, s);
           t_adaptive.push_back(seconds_since(t0));
         }
@@ -151,7 +148,7 @@ std::function<int()> setup_bench_extract(CLI::App& app) {
         ExtractSettings ms = s;
         ms.refine = RefineRule::kSignChange;
         for (int r = 0; r < o->runs; ++r) {
-          t0 = Clock::now();
+          t0 = BenchClock::now();
           mise = adaptive_extract(field, ms);
           t_mise.push_back(seconds_since(t0));
         }

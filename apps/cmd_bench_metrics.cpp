@@ -4,8 +4,8 @@
 //    (and DISN's approximate matcher), on surface samples of two different shapes;
 //  - Chamfer distance on 100k vs 100k points: the grid evaluator (metrics/grid_nn.h) against the KD-tree evaluator
 //    it replaced, both checked against brute force on a subset.
-#include "apps/bench_util.h"
 #include "apps/command.h"
+#include "bench/timing.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
@@ -30,12 +30,10 @@
 namespace sdfkit::app {
 namespace {
 
-using bench::median;
-using bench::seconds_since;
 
 // CPU time of the whole process: on a machine shared with other jobs, wall time of a one-thread run mostly
 // measures the queue; CPU time measures the work.
-const auto cpu_seconds = bench::process_cpu_seconds;
+const auto cpu_seconds = process_cpu_seconds;
 
 std::function<int()> setup_bench_metrics(CLI::App& app) {
   struct Opts {

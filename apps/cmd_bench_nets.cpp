@@ -1,7 +1,7 @@
 // `sdfkit bench nets`: forward/backward throughput of the conv and point-MLP layers as a fraction of the
 // machine's single-core float32 GEMM peak, measured in the same run (Eigen GEMM of large square matrices).
-#include "apps/bench_util.h"
 #include "apps/command.h"
+#include "bench/timing.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
@@ -20,7 +20,7 @@ namespace {
 
 // CPU time of the calling thread: the machine is shared, so wall time would measure the other processes too.
 // Everything runs on this thread (TBB limited to 1 thread below).
-const auto thread_seconds = bench::thread_cpu_seconds;
+const auto thread_seconds = thread_cpu_seconds;
 
 template <typename F>
 double median_seconds(int reps, F&& f) {
@@ -31,7 +31,7 @@ double median_seconds(int reps, F&& f) {
     f();
     t.push_back(thread_seconds() - t0);
   }
-  return bench::median(t);
+  return median(t);
 }
 
 void fill(Tensor& t, uint64_t seed) {

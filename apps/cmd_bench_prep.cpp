@@ -2,8 +2,8 @@
 // threads, grid memory and active voxels against a dense 257^3 grid computed in the same run (exact distance +
 // winding-number sign at every grid point), and the grid's error against a brute-force exact SDF at random band
 // points. Results: docs/benchmarks/prep.md.
-#include "apps/bench_util.h"
 #include "apps/command.h"
+#include "bench/timing.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
@@ -33,12 +33,8 @@
 namespace sdfkit::app {
 namespace {
 namespace fs = std::filesystem;
-using bench::Clock;
-using bench::median;
-using bench::peak_rss_mb;
-using bench::seconds_since;
 /// CPU seconds of the whole process (user + system): robust to other processes sharing the machine.
-const auto cpu_seconds = bench::process_cpu_seconds;
+const auto cpu_seconds = process_cpu_seconds;
 
 /// ~50k-triangle closed mesh: a torus with 160 x 160 quads (51,200 triangles).
 Mesh bench_closed() { return make_torus(Vec3::Zero(), 0.65, 0.25, 160, 160); }
@@ -128,7 +124,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
         for (int r = 0; r < o->repeats; ++r) {
           s.overwrite = true;
-          const auto t0 = Clock::now();
+          const auto t0 = BenchClock::now();
           const double cpu0 = cpu_seconds();
           st = prepare_mesh(sh.mesh, sh.name, (tmp / "shape").string(), s);
           (threads == 1 ? t1 : t2).push_back(seconds_since(t0));
@@ -205,7 +201,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
       double dense_s = 0, dense_cpu = 0;
       if (!o->no_dense) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
-        const auto t0 = Clock::now();
+        const auto t0 = BenchClock::now();
         const double cpu0 = cpu_seconds();
         const WindingNumber wn(object);
         std::vector<float> dense(static_cast<size_t>(dense_voxels));

@@ -1,7 +1,7 @@
 // `sdfkit bench recon`: seconds per image against reconstruction error for the adaptive and the dense extraction
 // at several effective resolutions (65^3, 129^3, 257^3), on prepared test shapes with their GT meshes.
-#include "apps/bench_util.h"
 #include "apps/command.h"
+#include "bench/timing.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
@@ -22,8 +22,6 @@
 namespace sdfkit::app {
 namespace {
 
-using bench::mean;
-using bench::median;
 
 
 std::function<int()> setup_bench_recon(CLI::App& app) {

@@ -1,8 +1,8 @@
 // `sdfkit bench render`: time per view of the rasteriser for a ~50k-triangle mesh at 137^2 and 512^2, with 1 and
 // 2 threads and several supersampling factors, plus a full 24-view set with files. Medians of --reps runs;
 // ratios against s = 1 at 137^2 on one thread, measured in the same run. Results: docs/benchmarks/render.md.
-#include "apps/bench_util.h"
 #include "apps/command.h"
+#include "bench/timing.h"
 #include "camera/views.h"
 #include "core/error.h"
 #include "core/json.h"
@@ -22,8 +22,7 @@
 namespace sdfkit::app {
 namespace {
 
-using bench::median;
-const auto cpu_seconds = bench::process_cpu_seconds;
+const auto cpu_seconds = process_cpu_seconds;
 
 
 

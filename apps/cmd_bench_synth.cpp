@@ -1,8 +1,8 @@
 // `sdfkit bench synth`: time to generate the procedural benchmark (in memory, per category) and to write it
 // (generate + binary PLY + lists) with 1 and all threads; triangle counts and bytes. Medians of --reps runs, ratios
 // against in-memory generation on one thread measured in the same run. Results: docs/benchmarks/synth.md.
-#include "apps/bench_util.h"
 #include "apps/command.h"
+#include "bench/timing.h"
 #include "core/error.h"
 #include "core/json.h"
 #include "synth/benchmark.h"
@@ -21,8 +21,7 @@
 namespace sdfkit::app {
 namespace {
 
-using bench::median;
-const auto cpu_seconds = bench::process_cpu_seconds;
+const auto cpu_seconds = process_cpu_seconds;
 
 namespace fs = std::filesystem;
 

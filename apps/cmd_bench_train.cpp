@@ -2,8 +2,8 @@
 // DISN-size SDF configuration and the pose network) at 1 and 2 threads, against the float32 GEMM peak of 1 and 2
 // threads measured in the same run. FLOPs are counted analytically (SdfNet::train_step_flops,
 // PoseNet::train_step_flops).
-#include "apps/bench_util.h"
 #include "apps/command.h"
+#include "bench/timing.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
@@ -102,16 +102,16 @@ double gemm_peak(int n, int threads, int reps) {
     C.emplace_back(n, n);
   }
   auto once = [&] {
-    const auto t0 = bench::Clock::now();
+    const auto t0 = BenchClock::now();
     std::vector<std::thread> pool;
     for (int t = 0; t < threads; ++t) pool.emplace_back([&, t] { C[t].noalias() = A[t] * B[t]; });
     for (auto& th : pool) th.join();
-    return bench::seconds_since(t0);
+    return seconds_since(t0);
   };
   once();
   std::vector<double> times;
   for (int r = 0; r < reps; ++r) times.push_back(once());
-  return 2.0 * n * n * n * threads / bench::median(times) * 1e-9;
+  return 2.0 * n * n * n * threads / median(times) * 1e-9;
 }
 
 /// A small prepared dataset (8 shapes, 4 views) made by this executable in `dir`.
@@ -140,11 +140,11 @@ Run time_run(const TrainConfig& c, const std::string& data, const std::string& o
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
   const long total = warmup + steps + 1;
   std::vector<double> wall, cpu;
-  auto t_last = bench::Clock::now();
-  double c_last = bench::process_cpu_seconds();
+  auto t_last = BenchClock::now();
+  double c_last = process_cpu_seconds();
   auto on_step = [&](long step) {
-    const auto t = bench::Clock::now();
-    const double c_now = bench::process_cpu_seconds();
+    const auto t = BenchClock::now();
+    const double c_now = process_cpu_seconds();
     if (step > warmup && step <= warmup + steps) {
       wall.push_back(std::chrono::duration<double>(t - t_last).count());
       cpu.push_back(c_now - c_last);
@@ -170,8 +170,8 @@ Run time_run(const TrainConfig& c, const std::string& data, const std::string& o
     s.val_items = 8;
     s.net = c.pose_net;
     s.azimuth_weight = shipped_pose_recipe().azimuth_weight;
-    t_last = bench::Clock::now();
-    c_last = bench::process_cpu_seconds();
+    t_last = BenchClock::now();
+    c_last = process_cpu_seconds();
     train_pose(s, [&](const PoseTrainEvent& e) { on_step(e.step); });
     r.gflop_per_step = PoseNet(c.pose_net, false).train_step_flops(c.batch) * 1e-9;
   } else {
@@ -187,12 +187,12 @@ Run time_run(const TrainConfig& c, const std::string& data, const std::string& o
     s.val_every = static_cast<int>(total);
     s.val_shapes = 2;
     s.val_points = 1024;
-    t_last = bench::Clock::now();
-    c_last = bench::process_cpu_seconds();
+    t_last = BenchClock::now();
+    c_last = process_cpu_seconds();
     train_sdf(s, [&](const SdfTrainEvent& e) { on_step(e.step); });
     r.gflop_per_step = SdfNet(c.sdf).train_step_flops(c.batch, c.points) * 1e-9;
   }
-  r.seconds_per_step = bench::median(wall);
+  r.seconds_per_step = median(wall);
   // CPU time over the same steps, divided evenly (per-step CPU times are noisy: the loader thread works ahead).
   double cpu_sum = 0, wall_sum = 0;
   for (size_t i = 0; i < wall.size(); ++i) {

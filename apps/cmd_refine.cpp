@@ -1,7 +1,7 @@
 // `sdfkit refine VIEWS_DIR -o MESH`: deform a mesh (a sphere, or a `recon` result) until its soft renders match a
 // view set's images (refine/refine.h); writes the mesh, its loss curve (CSV + SVG) and a preview sheet.
-#include "apps/bench_util.h"
 #include "apps/command.h"
+#include "bench/timing.h"
 #include "camera/image.h"
 #include "core/error.h"
 #include "core/files.h"
@@ -180,7 +180,7 @@ std::function<int()> setup_refine(CLI::App& app) {
                           {"steps", r.steps},
                           {"seconds", r.seconds},
                           {"seconds_per_step", r.seconds_per_step},
-                          {"peak_rss_mb", bench::peak_rss_mb()},
+                          {"peak_rss_mb", peak_rss_mb()},
                           {"loss", {{"total", last.loss},
                                     {"silhouette", last.silhouette},
                                     {"rgb", last.rgb},

@@ -1,5 +1,5 @@
-// Shared by the `sdfkit bench ...` commands: clocks and summary statistics. The machine these benchmarks run on is
-// shared, so besides wall time they report CPU time (of the process or of the calling thread).
+// Clocks and summary statistics of the benchmarks (bench/*_bench.h, `sdfkit bench ...`). The machine these
+// benchmarks run on is shared, so besides wall time they report CPU time (of the process or of the calling thread).
 #pragma once
 
 #include <sys/resource.h>
@@ -10,12 +10,14 @@
 #include <ctime>
 #include <vector>
 
-namespace sdfkit::app::bench {
+namespace sdfkit {
 
-using Clock = std::chrono::steady_clock;
+/// The wall clock of the benchmarks (named apart from the `Clock` aliases inside the libraries' sources).
+using BenchClock = std::chrono::steady_clock;
 
-inline double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
+/// Wall seconds since t0.
+inline double seconds_since(BenchClock::time_point t0) {
+  return std::chrono::duration<double>(BenchClock::now() - t0).count();
 }
 
 /// CPU seconds (user + system) of the whole process, all threads.
@@ -55,4 +57,4 @@ inline double mean(const std::vector<double>& v) {
   return s / static_cast<double>(v.size());
 }
 
-}  // namespace sdfkit::app::bench
+}  // namespace sdfkit
