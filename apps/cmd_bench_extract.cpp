@@ -1,225 +1,40 @@
-// `sdfkit bench extract`: dense vs sparse (OpenVDB band) vs adaptive marching cubes (distance bound, and the
-// sign-change rule of Occupancy Networks' MISE for comparison), on an analytic sphere and
-// an analytic chair (union of box SDFs: seat, four thin legs, a back of two posts, a top rail and slats), at
-// several resolutions. Reports evaluations, median wall times, whether the meshes are identical, the Chamfer
-// distance between them and their distance to the analytic surface. Results: docs/benchmarks/extract.md.
+// `sdfkit bench extract`: dense vs sparse vs adaptive marching cubes on analytic shapes (bench/extract_bench.h).
 #include "apps/command.h"
-#include "bench/timing.h"
-#include "core/error.h"
-#include "core/files.h"
+#include "bench/extract_bench.h"
 #include "core/json.h"
-#include "core/mesh_io.h"
-#include "core/primitives.h"
-#include "extract/adaptive.h"
-#include "extract/band_grid.h"
-#include "extract/marching_cubes.h"
-#include "metrics/chamfer.h"
-#include "metrics/sampling.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
-#include <algorithm>
-#include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <iostream>
-#include <sstream>
+#include <memory>
 
 namespace sdfkit::app {
 namespace {
 
-
-
-struct BoxPart {
-  Vec3 lo, hi;
-};
-
-/// A chair in the object frame (y up, inside the unit sphere): union (min) of box SDFs. The min of exact SDFs is
-/// 1-Lipschitz, so the distance bound (safety 1) holds.
-std::vector<BoxPart> chair_parts() {
-  std::vector<BoxPart> parts;
-  parts.push_back({Vec3(-0.45, -0.06, -0.45), Vec3(0.45, 0.02, 0.45)});  // seat
-  for (double x : {-0.41, 0.35})
-    for (double z : {-0.41, 0.35}) parts.push_back({Vec3(x, -0.80, z), Vec3(x + 0.06, -0.06, z + 0.06)});  // legs
-  for (double x : {-0.45, 0.39}) parts.push_back({Vec3(x, 0.02, 0.37), Vec3(x + 0.06, 0.85, 0.45)});     // posts
-  parts.push_back({Vec3(-0.39, 0.72, 0.38), Vec3(0.39, 0.85, 0.44)});                                   // top rail
-  for (double x : {-0.25, -0.09, 0.07, 0.23})
-    parts.push_back({Vec3(x - 0.025 + 0.01, 0.02, 0.395), Vec3(x + 0.025 + 0.01, 0.72, 0.425)});  // slats
-  return parts;
-}
-
-double chair_sdf(const Vec3& p, const std::vector<BoxPart>& parts) {
-  double d = 1e300;
-  for (const auto& b : parts) d = std::min(d, box_sdf(p, b.lo, b.hi));
-  return d;
-}
-
-/// Point-wise field evaluated in parallel (each value depends only on its point: deterministic).
-BatchField parallel_field(std::function<double(const Vec3&)> f) {
-  return [f](const Points& p, Eigen::VectorXd& v) {
-    v.resize(p.rows());
-    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, p.rows(), 1024), [&](const auto& r) {
-      for (Eigen::Index i = r.begin(); i < r.end(); ++i) v[i] = f(p.row(i).transpose());
-    });
-  };
-}
-
-bool same_mesh(const Mesh& a, const Mesh& b, double tol) {
-  if (a.F.rows() != b.F.rows() || a.V.rows() != b.V.rows() || a.F != b.F) return false;
-  return a.V.rows() == 0 || (a.V - b.V).cwiseAbs().maxCoeff() <= tol;
-}
-
 std::function<int()> setup_bench_extract(CLI::App& app) {
   struct Opts {
-    std::vector<int> resolutions = {129, 257};
-    std::vector<std::string> shapes = {"sphere", "chair"};
-    int coarse = 17;
-    int runs = 3;
-    double band = 3.0;
-    long samples = 100000;
-    std::string out;
+    ExtractBenchSettings s;
     bool json = false;
   };
   auto o = std::make_shared<Opts>();
-  app.add_option("--res", o->resolutions, "final grid points per axis (2^k + 1), e.g. --res 129 257")
+  app.add_option("--res", o->s.resolutions, "final grid points per axis (2^k + 1), e.g. --res 129 257")
       ->check(in_range(3, 2049));
-  app.add_option("--shapes", o->shapes, "analytic shapes: sphere, chair")->check(CLI::IsMember({"sphere", "chair"}));
-  app.add_option("--coarse", o->coarse, "coarse grid points per axis of the adaptive method")->check(in_range(2, 2049));
-  app.add_option("--runs", o->runs, "timed runs per method (the median is reported)")->check(in_range(1, 100));
-  app.add_option("--band", o->band, "half width (voxels) of the sparse band grid")->check(in_range(1.0, 100.0));
-  app.add_option("--samples", o->samples, "surface samples per mesh for the distance to the analytic surface")
+  app.add_option("--shapes", o->s.shapes, "analytic shapes: sphere, chair")->check(CLI::IsMember({"sphere", "chair"}));
+  app.add_option("--coarse", o->s.coarse, "coarse grid points per axis of the adaptive method")
+      ->check(in_range(2, 2049));
+  app.add_option("--runs", o->s.runs, "timed runs per method (the median is reported)")->check(in_range(1, 100));
+  app.add_option("--band", o->s.band, "half width (voxels) of the sparse band grid")->check(in_range(1.0, 100.0));
+  app.add_option("--samples", o->s.samples, "surface samples per mesh for the distance to the analytic surface")
       ->check(in_range(1000L, 10000000L));
-  app.add_option("-o,--out", o->out, "folder to write the extracted meshes to (<shape>_<res>_<method>.ply)");
+  app.add_option("-o,--out", o->s.out, "folder to write the extracted meshes to (<shape>_<res>_<method>.ply)");
   app.add_flag("--json", o->json, "print the results as JSON");
   return [o] {
-    const std::vector<BoxPart> parts = chair_parts();
-    Json rows = Json::array();
-    if (!o->json)
-      std::printf("%-7s %5s %-10s %12s %8s %10s %10s %10s %9s %11s %12s\n", "shape", "res", "method", "evaluations",
-                  "eval %", "eval s", "mc s", "total s", "identical", "CD x1000", "mean |sdf|");
-    for (const std::string& shape : o->shapes) {
-      std::function<double(const Vec3&)> sdf;
-      if (shape == "sphere")
-        sdf = [](const Vec3& p) { return sphere_sdf(p, Vec3(0.013, -0.021, 0.007), 0.8); };
-      else
-        sdf = [&parts](const Vec3& p) { return chair_sdf(p, parts); };
-      const BatchField field = parallel_field(sdf);
-      for (int res : o->resolutions) {
-        ExtractSettings s;
-        s.resolution = res;
-        s.coarse_resolution = std::min(o->coarse, res);
-        const double dense_evals = double(res) * res * res;
-        // Dense: sample every point, then marching cubes.
-        std::vector<double> t_eval, t_mc;
-        DenseGrid grid;
-        Mesh dense;
-        for (int r = 0; r < o->runs; ++r) {
-          auto t0 = BenchClock::now();
-          grid = sample_dense(field, s);
-          t_eval.push_back(seconds_since(t0));
-          t0 = BenchClock::now();
-          dense = marching_cubes(grid, {0.0, true});
-          t_mc.push_back(seconds_since(t0));
-        }
-        // Sparse: marching cubes over a narrow band (built once from the dense samples; the band's values are
-        // what `prep` stores in sdf.vdb).
-        auto t0 = BenchClock::now();
-        const BandGrid band = BandGrid::from_dense(grid, o->band);
-        const double band_build = seconds_since(t0);
-        std::vector<double> t_sparse;
-        Mesh sparse;
-        for (int r = 0; r < o->runs; ++r) {
-          t0 = BenchClock::now();
-          sparse = band.extract({0.0, false});
-          t_sparse.push_back(seconds_since(t0));
-        }
-        // Adaptive: distance-bound refinement from the field itself.
-        std::vector<double> t_adaptive;
-        ExtractResult adaptive;
-        for (int r = 0; r < o->runs; ++r) {
-          t0 = BenchClock::now();
-          adaptive = adaptive_extract(field, s);
-          t_adaptive.push_back(seconds_since(t0));
-        }
-        // For comparison: the same refinement with Occupancy Networks' sign-change rule (MISE).
-        std::vector<double> t_mise;
-        ExtractResult mise;
-        ExtractSettings ms = s;
-        ms.refine = RefineRule::kSignChange;
-        for (int r = 0; r < o->runs; ++r) {
-          t0 = BenchClock::now();
-          mise = adaptive_extract(field, ms);
-          t_mise.push_back(seconds_since(t0));
-        }
-        // Distances: between results (vertices), and of each to the analytic surface (area samples).
-        auto cd_to_dense = [&](const Mesh& m) {
-          if (m.V.rows() == 0 || dense.V.rows() == 0) return std::nan("");
-          return 1000.0 * chamfer(m.V, dense.V).cd_squared();
-        };
-        auto surface_error = [&](const Mesh& m) {
-          if (m.F.rows() == 0) return std::nan("");
-          const Points p = sample_surface(m, o->samples, 7).points;
-          double sum = 0;
-          for (Eigen::Index i = 0; i < p.rows(); ++i) sum += std::abs(sdf(p.row(i).transpose()));
-          return sum / double(p.rows());
-        };
-        const double voxel = s.box_size / (res - 1);
-        struct Row {
-          const char* method;
-          double evaluations, eval_s, mc_s, total_s;
-          const Mesh* mesh;
-          bool identical;
-        };
-        const double adaptive_total = median(t_adaptive);
-        const std::vector<Row> table = {
-            {"dense", dense_evals, median(t_eval), median(t_mc), median(t_eval) + median(t_mc), &dense, true},
-            {"sparse", double(band.active_voxels()), std::nan(""), median(t_sparse), median(t_sparse), &sparse,
-             same_mesh(sparse, dense, 1e-9 * voxel)},
-            {"adaptive", double(adaptive.evaluations), std::nan(""), std::nan(""), adaptive_total, &adaptive.mesh,
-             same_mesh(adaptive.mesh, dense, 0.0)},
-            {"signchange", double(mise.evaluations), std::nan(""), std::nan(""), median(t_mise), &mise.mesh,
-             same_mesh(mise.mesh, dense, 0.0)}};
-        for (const Row& row : table) {
-          const double cd = cd_to_dense(*row.mesh), err = surface_error(*row.mesh);
-          if (!o->json)
-            std::printf("%-7s %5d %-10s %12.0f %7.2f%% %10.4f %10.4f %10.4f %9s %11.3g %12.3g\n", shape.c_str(), res,
-                        row.method, row.evaluations, 100.0 * row.evaluations / dense_evals, row.eval_s, row.mc_s,
-                        row.total_s, row.identical ? "yes" : "NO", cd, err);
-          Json j = {{"shape", shape},
-                    {"resolution", res},
-                    {"method", row.method},
-                    {"evaluations", row.evaluations},
-                    {"evaluation_fraction", row.evaluations / dense_evals},
-                    {"seconds_median", row.total_s},
-                    {"faces", row.mesh->F.rows()},
-                    {"vertices", row.mesh->V.rows()},
-                    {"identical_to_dense", row.identical},
-                    {"cd_to_dense_x1000", std::isfinite(cd) ? Json(cd) : Json(nullptr)},
-                    {"mean_abs_sdf", std::isfinite(err) ? Json(err) : Json(nullptr)},
-                    {"runs", o->runs}};
-          if (std::isfinite(row.eval_s)) j["eval_seconds_median"] = row.eval_s;
-          if (std::isfinite(row.mc_s)) j["mc_seconds_median"] = row.mc_s;
-          if (std::string(row.method) == "sparse") j["band_build_seconds"] = band_build;
-          if (std::string(row.method) == "signchange") {
-            j["level_cells"] = mise.level_cells;
-            j["level_evaluations"] = mise.level_evaluations;
-            j["area_ratio_to_dense"] = surface_area(mise.mesh) / surface_area(dense);
-          }
-          if (std::string(row.method) == "adaptive") {
-            j["level_cells"] = adaptive.level_cells;
-            j["level_evaluations"] = adaptive.level_evaluations;
-            j["coarse_resolution"] = s.coarse_resolution;
-            j["speedup_vs_dense"] = (median(t_eval) + median(t_mc)) / adaptive_total;
-          }
-          rows.push_back(j);
-          if (!o->out.empty())
-            write_mesh(o->out + "/" + shape + "_" + std::to_string(res) + "_" + row.method + ".ply", *row.mesh);
-        }
-        std::fflush(stdout);
-      }
-    }
-    if (o->json) std::cout << rows.dump(2) << '\n';
+    if (!o->json) std::fputs(extract_bench_header().c_str(), stdout);
+    const ExtractBenchResult r = run_extract_bench(o->s, [&](const ExtractBenchRow& row) {
+      if (o->json) return;
+      std::fputs(extract_bench_row_text(row).c_str(), stdout);
+      std::fflush(stdout);
+    });
+    if (o->json) std::cout << extract_bench_json(r).dump(2) << '\n';
     return int(kOk);
   };
 }
