@@ -7,6 +7,7 @@
 #include "core/json.h"
 #include "core/mesh_io.h"
 #include "recon/recon.h"
+#include "recon/recon_json.h"
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -262,51 +263,12 @@ std::function<int()> setup_recon(CLI::App& app) {
           write_image(preview_path, r.preview);
           write_image(mask_path, r.framing.mask);
         }
-        j["mesh"] = mesh_path;
-        if (o->s.preview) {
-          j["preview"] = preview_path;
-          j["mask"] = mask_path;
-        }
-        const FramedInput& fr = r.framing;
-        j["framing"] = {{"mask_source", fr.mask_source},
-                        {"reframed", fr.reframed},
-                        {"crop", {{"x", fr.x0}, {"y", fr.y0}, {"side", fr.side}}},
-                        {"object_box", {fr.object_box.x, fr.object_box.y, fr.object_box.w, fr.object_box.h}},
-                        {"extent", fr.extent},
-                        {"image_size", {img.width, img.height}}};
-        j["warnings"] = fr.warnings;
-        j["camera"] = camera_to_json(r.input_camera);
-        j["network_camera"] = camera_to_json(r.camera);
-        j["camera_source"] = r.camera_estimated ? "estimated" : "given";
-        if (r.camera_estimated) j["flip_turn_deg"] = r.flip_turn_deg;
-        if (!r.refinements.empty()) {
-          Json rounds = Json::array();
-          for (const CameraRefineResult& rr : r.refinements)
-            rounds.push_back({{"iou_before", rr.iou_before},
-                              {"iou_after", rr.iou_after},
-                              {"rotation_deg", {rr.rotation_deg.x(), rr.rotation_deg.y(), rr.rotation_deg.z()}},
-                              {"distance_ratio", rr.distance_ratio},
-                              {"sweep_azimuth_deg", rr.sweep_azimuth_deg},
-                              {"evaluations", rr.evaluations},
-                              {"seconds", rr.seconds}});
-          j["camera_refinement"] = {
-              {"initial_camera", camera_to_json(camera_in_input(r.initial_camera, fr, img.width, img.height))},
-              {"rounds", rounds}};
-        }
-        j["evaluations"] = r.evaluations;
-        j["vertices"] = r.mesh.num_vertices();
-        j["faces"] = r.mesh.num_faces();
-        j["components_removed"] = r.components_removed;
-        j["resolution"] = o->s.resolution;
-        j["extraction"] = o->s.dense ? "dense" : "adaptive";
-        const ReconTimings& t = r.timings;
-        j["seconds"] = {{"prepare", t.prepare}, {"pose", t.pose},       {"encode", t.encode},
-                        {"field", t.field},     {"extract", t.extract}, {"cleanup", t.cleanup},
-                        {"refine", t.refine},   {"preview", t.preview}, {"total", t.total}};
+        j = recon_result_json(r, o->s, {in, mesh_path, preview_path, mask_path}, img.width, img.height);
         if (!o->json) {
           std::ostringstream line;
           line << in << " -> " << mesh_path << " (" << r.mesh.num_faces() << " faces, " << r.evaluations
-               << " evaluations, " << t.total << " s" << (o->s.preview ? ", preview " + preview_path : "") << ")";
+               << " evaluations, " << r.timings.total << " s" << (o->s.preview ? ", preview " + preview_path : "")
+               << ")";
           bar.print_line(stdout, line.str());
         }
       } catch (const std::exception& e) {

@@ -1,0 +1,26 @@
+// The JSON record `sdfkit recon --json` prints for one reconstructed image: where its files went, how the image
+// was framed, the cameras (of the input image and of the network image), the camera refinement rounds, the size
+// of the mesh and the seconds per stage.
+#pragma once
+
+#include "core/json_fwd.h"
+#include "recon/recon.h"
+
+#include <string>
+
+namespace sdfkit {
+
+/// The files of one reconstructed image.
+struct ReconOutputPaths {
+  std::string input;    ///< the image read
+  std::string mesh;     ///< the mesh written
+  std::string preview;  ///< the preview PNG (named only when settings.preview)
+  std::string mask;     ///< the object mask PNG (written with the preview)
+};
+
+/// The record of `result`, what Reconstructor::run returned for an image of image_width x image_height with
+/// `settings`. The refinement's initial camera is given as a camera of the input image (camera_in_input).
+Json recon_result_json(const ReconResult& result, const ReconSettings& settings, const ReconOutputPaths& paths,
+                       int image_width, int image_height);
+
+}  // namespace sdfkit
