@@ -54,7 +54,8 @@ std::function<int()> setup_bench_recon(CLI::App& app) {
   };
 }
 
-SDFKIT_REGISTER_COMMAND("bench recon", "seconds per image against CD/IoU for adaptive vs dense extraction at 65/129/257",
+SDFKIT_REGISTER_COMMAND("bench recon",
+                        "seconds per image against CD/IoU for adaptive vs dense extraction at 65/129/257",
                         setup_bench_recon);
 
 }  // namespace

@@ -172,9 +172,10 @@ std::string metrics_bench_text(const MetricsBenchResult& r) {
   const Json& c = out["chamfer"];
   text += bench_printf("Chamfer, %ld vs %ld points, %ld threads, median of %d:\n", r.cd_points, r.cd_points,
                        c["threads"].get<long>(), r.repeats);
-  text += bench_printf("  grid evaluator (build + both directions)    %8.4f s wall, %8.4f s CPU  CD^2 %.6g  CD-L1 %.6g\n",
-                       c["wall_seconds_median"].get<double>(), c["cpu_seconds_median"].get<double>(),
-                       c["cd_squared"].get<double>(), c["cd_l1"].get<double>());
+  text += bench_printf(
+      "  grid evaluator (build + both directions)    %8.4f s wall, %8.4f s CPU  CD^2 %.6g  CD-L1 %.6g\n",
+      c["wall_seconds_median"].get<double>(), c["cpu_seconds_median"].get<double>(), c["cd_squared"].get<double>(),
+      c["cd_l1"].get<double>());
   text += bench_printf("  KD-tree baseline (nanoflann, same run)      %8.4f s wall, %8.4f s CPU  max |difference| "
                        "%.1e  wall speed-up of the grid %.2fx\n",
                        c["kdtree_wall_seconds_median"].get<double>(), c["kdtree_cpu_seconds_median"].get<double>(),

@@ -77,7 +77,7 @@ NetsBenchResult run_nets_bench(const NetsBenchSettings& settings) {
                             ConvCase{8, 64, 56, 64, 3, 1}}) {
     Conv2d<float> conv({c.c, c.o, c.k, c.s, c.k / 2, true});
     const Shape os = conv.output_shape({c.n, c.c, c.h, c.h});
-    const double flops = 2.0 * c.n * c.o * os[2] * os[3] * c.c * c.k * c.k;
+    const double flops = 2.0 * c.n * c.o * static_cast<double>(os[2]) * static_cast<double>(os[3]) * c.c * c.k * c.k;
     char name[128];
     std::snprintf(name, sizeof name, "conv %dx%d/%d %d->%d @%d (batch %d)", c.k, c.k, c.s, c.c, c.o, c.h, c.n);
     out.layers.push_back(bench_layer(name, conv, {c.n, c.c, c.h, c.h}, flops, settings.reps));

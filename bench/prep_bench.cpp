@@ -177,7 +177,8 @@ PrepBenchResult run_prep_bench(const PrepBenchSettings& settings,
       tbb::parallel_for(tbb::blocked_range<int>(0, R * R), [&](const auto& r) {
         for (int ij = r.begin(); ij != r.end(); ++ij)
           for (int k = 0; k < R; ++k) {
-            const Vec3 p(-1.2 + step * (ij / R), -1.2 + step * (ij % R), -1.2 + step * k);
+            const int i = ij / R, j = ij % R;  // grid point (i, j, k)
+            const Vec3 p(-1.2 + step * i, -1.2 + step * j, -1.2 + step * k);
             const double u = dist(p);
             dense[static_cast<size_t>(ij) * R + k] = static_cast<float>(wn(p) > 0.5 ? -u : u);
           }
@@ -214,9 +215,10 @@ std::string prep_bench_row_text(const PrepBenchRow& row) {
       "%-22s %7ld %5s %8.3f %8.3f %8.3f %8.3f %10ld %7.2f%% %8.2f %9.1f %9.2f %9.2f %9.5f %9.5f %7.2f%%\n",
       row.shape.c_str(), row.triangles, st.sign == SignMethod::kPseudoNormal ? "pn" : "wn",
       median(row.seconds_1_thread), median(row.cpu_seconds_1_thread), median(row.seconds_2_threads),
-      median(row.cpu_seconds_2_threads), st.active_voxels, pct, st.grid_bytes / 1e6, row.lattice_voxels * 4e-6,
-      row.dense_seconds, row.dense_cpu_seconds, row.mean_abs_error, row.max_abs_error,
-      100.0 * row.sign_ok / std::max<double>(1, static_cast<double>(row.band_points)));
+      median(row.cpu_seconds_2_threads), st.active_voxels, pct, static_cast<double>(st.grid_bytes) / 1e6,
+      static_cast<double>(row.lattice_voxels) * 4e-6, row.dense_seconds, row.dense_cpu_seconds, row.mean_abs_error,
+      row.max_abs_error,
+      100.0 * static_cast<double>(row.sign_ok) / std::max<double>(1, static_cast<double>(row.band_points)));
   text += bench_printf(
       "  stages (wall s, last 1-thread run): mesh %.3f | grid: setup %.3f band %.3f insert %.3f sign %.3f (%ld "
       "probes) | samples %.3f (%ld candidates) | gt %.3f | files %.3f\n",
@@ -226,7 +228,7 @@ std::string prep_bench_row_text(const PrepBenchRow& row) {
     text += bench_printf(
         "  same active voxels in non-standard trees with 4^3 leaves: 5,4,2 %.2f MB | 4,3,2 %.2f MB (standard 5,4,3 "
         "FloatGrid %.2f MB)\n",
-        row.tree_542_mb, row.tree_432_mb, st.grid_bytes / 1e6);
+        row.tree_542_mb, row.tree_432_mb, static_cast<double>(st.grid_bytes) / 1e6);
   return text;
 }
 

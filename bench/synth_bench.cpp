@@ -108,7 +108,8 @@ std::string synth_bench_text(const SynthBenchResult& r) {
   text += bench_printf("write (gen + PLY), %d threads:   %8.3f s wall, %.3f s cpu  (x%.2f; speed-up x%.2f)\n",
                        r.write_threads, wn, r.write_parallel_cpu_s, wn / base, w1 / wn);
   text += bench_printf("written: %.1f MB; triangles per shape min %ld, median %.0f, mean %.0f, max %ld\n",
-                       r.bytes_written / 1e6, r.triangles_min, r.triangles_median, r.triangles_mean, r.triangles_max);
+                       static_cast<double>(r.bytes_written) / 1e6, r.triangles_min, r.triangles_median,
+                       r.triangles_mean, r.triangles_max);
   return text;
 }
 

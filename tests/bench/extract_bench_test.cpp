@@ -80,9 +80,11 @@ TEST_CASE("extract bench formatters: the text table and the JSON hold every row"
   CHECK(text.rfind(extract_bench_header(), 0) == 0);
   CHECK(text == extract_bench_header() + extract_bench_row_text(a) + extract_bench_row_text(b));
   CHECK(extract_bench_row_text(a) ==
-        "sphere     65 dense            274625  100.00%     0.2500     0.5000     0.7500       yes           0      0.00125\n");
+        "sphere     65 dense            274625  100.00%     0.2500     0.5000     0.7500       yes           0"
+        "      0.00125\n");
   CHECK(extract_bench_row_text(b) ==
-        "chair      65 adaptive          27462   10.00%        nan        nan     0.1250        NO         nan      0.00125\n");
+        "chair      65 adaptive          27462   10.00%        nan        nan     0.1250        NO         nan"
+        "      0.00125\n");
 
   const Json j = extract_bench_json(r);
   REQUIRE(j.is_array());

@@ -17,7 +17,8 @@ TEST_CASE("render bench of a small mesh: seven configurations in order, ratios a
   CHECK(r.faces == 640);
   CHECK(r.views == 2);
   CHECK(r.reps == 1);
-  const int expected[7][3] = {{137, 1, 1}, {137, 2, 1}, {137, 3, 1}, {137, 4, 1}, {137, 3, 2}, {512, 3, 1}, {512, 3, 2}};
+  const int expected[7][3] = {{137, 1, 1}, {137, 2, 1}, {137, 3, 1}, {137, 4, 1},
+                              {137, 3, 2}, {512, 3, 1}, {512, 3, 2}};
   REQUIRE(r.rows.size() == 7);
   for (int i = 0; i < 7; ++i) {
     CAPTURE(i);
