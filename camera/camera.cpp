@@ -126,7 +126,7 @@ Eigen::Vector2d project(const Camera& cam, const Vec3& x, ProjectionJacobians& j
   jac.d_translation = B;
   jac.d_point = B * cam.R;
   jac.d_rotation = -B * skew(Rx);
-  for (int j = 0; j < 3; ++j) jac.d_R.block<2, 3>(0, 3 * j) = B * x[j];
+  for (int j = 0; j < 3; ++j) jac.d_matrix.block<2, 3>(0, 3 * j) = B * x[j];
   return pixel;
 }
 

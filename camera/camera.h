@@ -70,13 +70,13 @@ Eigen::Vector2d project(const Camera& cam, const Vec3& x, double* depth = nullpt
 ///  d_point:       wrt the world point x;
 ///  d_translation: wrt t;
 ///  d_rotation:    wrt a rotation perturbation w applied on the left, R(w) = exp([w]_x) R, at w = 0;
-///  d_R:           wrt the 9 entries of R, vec(R) column-major (R(0,0), R(1,0), R(2,0), R(0,1), ...),
-///                 the layout rot6d_jacobian() uses, so d pixel / d b6 = d_R * rot6d_jacobian(b6).
+///  d_matrix:      wrt the 9 entries of R, vec(R) column-major (R(0,0), R(1,0), R(2,0), R(0,1), ...),
+///                 the layout rot6d_jacobian() uses, so d pixel / d b6 = d_matrix * rot6d_jacobian(b6).
 struct ProjectionJacobians {
   Eigen::Matrix<double, 2, 3> d_point;
   Eigen::Matrix<double, 2, 3> d_translation;
   Eigen::Matrix<double, 2, 3> d_rotation;
-  Eigen::Matrix<double, 2, 9> d_R;
+  Eigen::Matrix<double, 2, 9> d_matrix;
 };
 Eigen::Vector2d project(const Camera& cam, const Vec3& x, ProjectionJacobians& jac, double* depth = nullptr);
 

@@ -56,14 +56,14 @@ inline void to_fixed(const ViewSetup& v, const Eigen::Vector3d& p, int32_t& X, i
 
 /// Orientation, area and sample bounding box of a fixed-point triangle; false when it covers no sample centre.
 inline bool finish_tri(const ViewSetup& v, int face, RasterTri& t) {
-  const int64_t minX = std::min({t.X[0], t.X[1], t.X[2]}), maxX = std::max({t.X[0], t.X[1], t.X[2]});
-  const int64_t minY = std::min({t.Y[0], t.Y[1], t.Y[2]}), maxY = std::max({t.Y[0], t.Y[1], t.Y[2]});
+  const int64_t min_x = std::min({t.X[0], t.X[1], t.X[2]}), max_x = std::max({t.X[0], t.X[1], t.X[2]});
+  const int64_t min_y = std::min({t.Y[0], t.Y[1], t.Y[2]}), max_y = std::max({t.Y[0], t.Y[1], t.Y[2]});
   // Sample j is centred at j * kSub + kSub / 2.
-  t.x0 = static_cast<int>(std::max<int64_t>(0, ceil_div(minX - kSub / 2, kSub)));
-  t.x1 = static_cast<int>(std::min<int64_t>(v.W - 1, floor_div(maxX - kSub / 2, kSub)));
+  t.x0 = static_cast<int>(std::max<int64_t>(0, ceil_div(min_x - kSub / 2, kSub)));
+  t.x1 = static_cast<int>(std::min<int64_t>(v.W - 1, floor_div(max_x - kSub / 2, kSub)));
   if (t.x0 > t.x1) return false;
-  t.y0 = static_cast<int>(std::max<int64_t>(0, ceil_div(minY - kSub / 2, kSub)));
-  t.y1 = static_cast<int>(std::min<int64_t>(v.H - 1, floor_div(maxY - kSub / 2, kSub)));
+  t.y0 = static_cast<int>(std::max<int64_t>(0, ceil_div(min_y - kSub / 2, kSub)));
+  t.y1 = static_cast<int>(std::min<int64_t>(v.H - 1, floor_div(max_y - kSub / 2, kSub)));
   if (t.y0 > t.y1) return false;
   int64_t a = (int64_t(t.X[1]) - t.X[0]) * (int64_t(t.Y[2]) - t.Y[0]) -
               (int64_t(t.Y[1]) - t.Y[0]) * (int64_t(t.X[2]) - t.X[0]);

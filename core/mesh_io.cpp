@@ -609,7 +609,9 @@ Mesh read_mesh(const std::string& path, MeshReport* report, const TextureSampler
 
 void check_face_indices(const Mesh& mesh, const std::string& what) {
   const Eigen::Index nv = mesh.V.rows();
-  if ((mesh.F.array() >= 0).all() && (mesh.F.array() < nv).all()) return;
+  // Face indices are int: with more vertices than an int can count, every non-negative index is in range.
+  const int limit = static_cast<int>(std::min<Eigen::Index>(nv, std::numeric_limits<int>::max()));
+  if ((mesh.F.array() >= 0).all() && (nv > limit || (mesh.F.array() < limit).all())) return;
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
     for (int k = 0; k < 3; ++k)
       if (mesh.F(f, k) < 0 || mesh.F(f, k) >= nv)

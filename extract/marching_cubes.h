@@ -25,8 +25,9 @@ struct DenseGrid {
   std::vector<float> values;
 
   DenseGrid() = default;
-  DenseGrid(const Vec3& origin_, double voxel_, int nx_, int ny_, int nz_, float fill = 0.0f)
-      : origin(origin_), voxel(voxel_), nx(nx_), ny(ny_), nz(nz_), values(size_t(nx_) * ny_ * nz_, fill) {}
+  DenseGrid(const Vec3& grid_origin, double voxel_size, int size_x, int size_y, int size_z, float fill = 0.0f)
+      : origin(grid_origin), voxel(voxel_size), nx(size_x), ny(size_y), nz(size_z),
+        values(size_t(size_x) * size_y * size_z, fill) {}
 
   [[nodiscard]] size_t index(int i, int j, int k) const { return size_t(i) + size_t(nx) * (size_t(j) + size_t(ny) * k); }
   [[nodiscard]] float at(int i, int j, int k) const { return values[index(i, j, k)]; }

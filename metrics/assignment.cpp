@@ -65,8 +65,8 @@ __attribute__((target("avx2"))) void best_two_avx2(const int* cols, const double
                                                    double& best, double& second, int& best_j) {
   const int m4 = m & ~3;
   if (m4 > 0) {
-    constexpr double inf = std::numeric_limits<double>::infinity();
-    __m256d vbest = _mm256_set1_pd(inf), vsecond = vbest;
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    __m256d vbest = _mm256_set1_pd(kInf), vsecond = vbest;
     __m256i vj = _mm256_set1_epi64x(-1);
     for (int q = 0; q < m4; q += 4) {
       const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(cols + q));
@@ -178,7 +178,7 @@ std::vector<int> hungarian(const Eigen::MatrixXd& cost, double* total) {
                                           std::to_string(cost.cols()) + ", not square");
   require(cost.allFinite(), "hungarian: non-finite cost");
   const int n = static_cast<int>(cost.rows());
-  constexpr double inf = std::numeric_limits<double>::infinity();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
   // 1-based potentials u (rows), v (columns); p[j] = row matched to column j (0 = none); column 0 is the
   // virtual start of each row's search.
   std::vector<double> u(n + 1, 0.0), v(n + 1, 0.0), minv(n + 1);
@@ -187,12 +187,12 @@ std::vector<int> hungarian(const Eigen::MatrixXd& cost, double* total) {
   for (int i = 1; i <= n; ++i) {
     p[0] = i;
     int j0 = 0;
-    std::fill(minv.begin(), minv.end(), inf);
+    std::fill(minv.begin(), minv.end(), kInf);
     std::fill(used.begin(), used.end(), 0);
     do {
       used[j0] = 1;
       const int i0 = p[j0];
-      double delta = inf;
+      double delta = kInf;
       int j1 = 0;
       for (int j = 1; j <= n; ++j) {
         if (used[j]) continue;

@@ -80,7 +80,7 @@ void scan_points(const double* x, const double* y, const double* z, const uint32
 // The offsets of the (2R+1)^3 block around a cell, sorted by the least distance a point of the centre cell can
 // have to the offset cell: sqrt(sum over axes of max(0, |d| - 1)^2) cell sizes; ties by offset for determinism.
 const std::vector<NearestGrid::CellOffset>& NearestGrid::block_offsets() {
-  static const std::vector<CellOffset> table = [] {
+  static const std::vector<CellOffset> kTable = [] {
     std::vector<CellOffset> t;
     for (int z = -kMaxRing; z <= kMaxRing; ++z)
       for (int y = -kMaxRing; y <= kMaxRing; ++y)
@@ -97,7 +97,7 @@ const std::vector<NearestGrid::CellOffset>& NearestGrid::block_offsets() {
     std::stable_sort(t.begin(), t.end(), [](const CellOffset& a, const CellOffset& b) { return a.rank < b.rank; });
     return t;
   }();
-  return table;
+  return kTable;
 }
 
 NearestGrid::NearestGrid(const Points& points, const std::string& what) {
@@ -273,10 +273,10 @@ void NearestGrid::nearest(const Points& queries, Eigen::VectorXi& index, Eigen::
   std::vector<uint32_t> first;
   const std::vector<uint32_t> visit = bucket(queries, first);
 
-  constexpr Eigen::Index block = 512;  // a fixed split: results never depend on it or on the thread count
-  tbb::parallel_for(Eigen::Index(0), (n + block - 1) / block, [&](Eigen::Index b) {
+  constexpr Eigen::Index kBlock = 512;  // a fixed split: results never depend on it or on the thread count
+  tbb::parallel_for(Eigen::Index(0), (n + kBlock - 1) / kBlock, [&](Eigen::Index b) {
     uint32_t guess = std::numeric_limits<uint32_t>::max();
-    for (Eigen::Index k = b * block; k < std::min(n, (b + 1) * block); ++k) {
+    for (Eigen::Index k = b * kBlock; k < std::min(n, (b + 1) * kBlock); ++k) {
       const Eigen::Index i = visit[static_cast<size_t>(k)];
       const double q[3] = {queries(i, 0), queries(i, 1), queries(i, 2)};
       bool resolved = false;

@@ -84,12 +84,12 @@ void KdTree::nearest(const Points& queries, Eigen::VectorXi& index, Eigen::Vecto
   require(order == nullptr || static_cast<Eigen::Index>(order->size()) == n, "KdTree::nearest: order size mismatch");
   index.resize(n);
   squared_distance.resize(n);
-  constexpr Eigen::Index block = 256;
-  const Eigen::Index blocks = (n + block - 1) / block;
+  constexpr Eigen::Index kBlock = 256;
+  const Eigen::Index blocks = (n + kBlock - 1) / kBlock;
   tbb::parallel_for(Eigen::Index(0), blocks, [&](Eigen::Index b) {
     uint32_t prev = 0;
     bool have_prev = false;
-    for (Eigen::Index k = b * block; k < std::min(n, (b + 1) * block); ++k) {
+    for (Eigen::Index k = b * kBlock; k < std::min(n, (b + 1) * kBlock); ++k) {
       const Eigen::Index i = order != nullptr ? static_cast<Eigen::Index>((*order)[k]) : k;
       const double q[3] = {queries(i, 0), queries(i, 1), queries(i, 2)};
       uint32_t idx = 0;
@@ -139,13 +139,13 @@ void KdTree::knn_batch(const Points& queries, int k, std::vector<uint32_t>& inde
   require(order == nullptr || static_cast<Eigen::Index>(order->size()) == n, "KdTree::knn_batch: order size mismatch");
   const auto uk = static_cast<size_t>(k);
   index.resize(static_cast<size_t>(n) * uk);
-  constexpr Eigen::Index block = 256;
-  const Eigen::Index blocks = (n + block - 1) / block;
+  constexpr Eigen::Index kBlock = 256;
+  const Eigen::Index blocks = (n + kBlock - 1) / kBlock;
   tbb::parallel_for(Eigen::Index(0), blocks, [&](Eigen::Index b) {
     std::vector<double> d2(uk);
     double prev_q[3] = {0, 0, 0}, prev_kth = 0;
     bool have_prev = false;
-    for (Eigen::Index t = b * block; t < std::min(n, (b + 1) * block); ++t) {
+    for (Eigen::Index t = b * kBlock; t < std::min(n, (b + 1) * kBlock); ++t) {
       const Eigen::Index i = order != nullptr ? static_cast<Eigen::Index>((*order)[t]) : t;
       const double q[3] = {queries(i, 0), queries(i, 1), queries(i, 2)};
       double cap = std::numeric_limits<double>::infinity();

@@ -230,7 +230,8 @@ Shape Linear<T>::output_shape(const Shape& in) const {
 template <typename T>
 double Linear<T>::forward_flops(const Shape& in) const {
   (void)output_shape(in);  // checks the input
-  return 2.0 * static_cast<double>(shape_size(in) / s_.in_features) * s_.in_features * s_.out_features;
+  const size_t rows = shape_size(in) / static_cast<size_t>(s_.in_features);  // the input's leading dimensions
+  return 2.0 * static_cast<double>(rows) * s_.in_features * s_.out_features;
 }
 
 template <typename T>

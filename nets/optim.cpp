@@ -15,9 +15,11 @@ double LrSchedule::at(long step) const {
   double lr = base;
   switch (kind) {
     case Kind::kConstant: break;
-    case Kind::kStep:
-      lr = base * std::pow(gamma, static_cast<double>(step / std::max(1L, step_size)));
+    case Kind::kStep: {
+      const long drops = step / std::max(1L, step_size);  // a staircase: whole steps of step_size
+      lr = base * std::pow(gamma, static_cast<double>(drops));
       break;
+    }
     case Kind::kCosine: {
       const double f = static_cast<double>(std::min(step, total_steps)) / static_cast<double>(std::max(1L, total_steps));
       lr = min_lr + (base - min_lr) * 0.5 * (1.0 + std::cos(M_PI * f));

@@ -19,8 +19,8 @@ inline std::string loss_curve_path(const std::string& model, const char* extensi
 template <typename Scores>
 struct TrainEvent {
   TrainEvent() = default;
-  TrainEvent(long step_, long total_, double loss_, double lr_, double seconds_)
-      : step(step_), total(total_), loss(loss_), lr(lr_), seconds(seconds_) {}
+  TrainEvent(long at_step, long total_steps, double step_loss, double step_lr, double elapsed)
+      : step(at_step), total(total_steps), loss(step_loss), lr(step_lr), seconds(elapsed) {}
   long step = 0, total = 0;
   double loss = 0, lr = 0, seconds = 0;  ///< the step's training loss and rate; wall seconds including resumed runs
   bool validated = false;

@@ -32,11 +32,11 @@ Scaled unscale(const Vec4& x, const CameraRefineSettings& s) {
 /// edge `step`; ties keep the earlier vertex, so the run is a fixed function of its inputs.
 template <class F>
 Vec4 nelder_mead(const F& f, const Vec4& x0, double f0, double step, double tol, int budget, int& used, double& fbest) {
-  const int kDim = static_cast<int>(x0.size());
-  std::vector<Vec4> x(kDim + 1, x0);
-  std::vector<double> fx(kDim + 1, std::numeric_limits<double>::infinity());
+  const int dim = static_cast<int>(x0.size());
+  std::vector<Vec4> x(dim + 1, x0);
+  std::vector<double> fx(dim + 1, std::numeric_limits<double>::infinity());
   fx[0] = f0;
-  for (int i = 0; i < kDim && used < budget; ++i) {
+  for (int i = 0; i < dim && used < budget; ++i) {
     x[i + 1] = x0;
     x[i + 1][i] += step;
     fx[i + 1] = f(x[i + 1]);
@@ -47,18 +47,18 @@ Vec4 nelder_mead(const F& f, const Vec4& x0, double f0, double step, double tol,
     fbest = fx[best];
     return x[best];
   }
-  std::vector<int> order(kDim + 1);
+  std::vector<int> order(dim + 1);
   while (used < budget) {
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return fx[a] < fx[b]; });
-    const int lo = order[0], hi = order[kDim], second = order[kDim - 1];
+    const int lo = order[0], hi = order[dim], second = order[dim - 1];
     double size = 0;
-    for (int i = 1; i <= kDim; ++i) size = std::max(size, (x[order[i]] - x[lo]).cwiseAbs().maxCoeff());
+    for (int i = 1; i <= dim; ++i) size = std::max(size, (x[order[i]] - x[lo]).cwiseAbs().maxCoeff());
     if (fx[hi] - fx[lo] <= tol && size <= tol * 10) break;
     if (size <= 1e-6) break;
-    Vec4 centroid = Vec4::Zero(kDim);
-    for (int i = 0; i < kDim; ++i) centroid += x[order[i]];
-    centroid /= kDim;
+    Vec4 centroid = Vec4::Zero(dim);
+    for (int i = 0; i < dim; ++i) centroid += x[order[i]];
+    centroid /= dim;
     const Vec4 xr = centroid + (centroid - x[hi]);
     const double fr = f(xr);
     ++used;
@@ -90,7 +90,7 @@ Vec4 nelder_mead(const F& f, const Vec4& x0, double f0, double step, double tol,
       fx[hi] = fc;
       continue;
     }
-    for (int i = 1; i <= kDim && used < budget; ++i) {  // shrink towards the best vertex
+    for (int i = 1; i <= dim && used < budget; ++i) {  // shrink towards the best vertex
       const int k = order[i];
       x[k] = x[lo] + 0.5 * (x[k] - x[lo]);
       fx[k] = f(x[k]);
@@ -98,7 +98,7 @@ Vec4 nelder_mead(const F& f, const Vec4& x0, double f0, double step, double tol,
     }
   }
   int best = 0;
-  for (int i = 1; i <= kDim; ++i)
+  for (int i = 1; i <= dim; ++i)
     if (fx[i] < fx[best]) best = i;
   fbest = fx[best];
   return x[best];

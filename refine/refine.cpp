@@ -47,7 +47,7 @@ std::vector<TargetView> read_target_views(const std::string& dir, const Eigen::V
   if (!fs::is_directory(dir)) throw IoError(dir + ": not a folder of views (NN.png + NN.json)");
   std::vector<std::string> names;
   for (const auto& e : fs::directory_iterator(dir)) {
-    const fs::path p = e.path();
+    const fs::path& p = e.path();
     if (p.extension() != ".json" || p.filename() == "norm.json") continue;
     if (!fs::exists(fs::path(dir) / (p.stem().string() + ".png"))) continue;
     names.push_back(p.stem().string());

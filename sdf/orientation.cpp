@@ -111,7 +111,7 @@ Mesh orient_consistently(const Mesh& mesh, OrientationReport* report) {
         if (component[g] >= 0) continue;
         component[g] = c;
         // Two faces sharing an edge in the same direction disagree: the neighbour takes the opposite flip.
-        flip[g] = same ? !flip[f] : flip[f];
+        flip[g] = static_cast<char>(same ? !flip[f] : flip[f]);
         queue.push_back(g);
       }
     }
@@ -164,7 +164,7 @@ Mesh orient_consistently(const Mesh& mesh, OrientationReport* report) {
       r.inverted_components += closed[c];
       for (int32_t f : members[c]) {
         std::swap(out.F(f, 1), out.F(f, 2));
-        flip[f] = !flip[f];
+        flip[f] = static_cast<char>(!flip[f]);
       }
     }
   }

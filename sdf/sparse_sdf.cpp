@@ -98,7 +98,7 @@ long classify_components(UnionFind& uf, int32_t n, const std::vector<int32_t>& p
       first = false;
     }
     if (agreed) {
-      for (int32_t m : members) inside[m] = verdict;
+      for (int32_t m : members) inside[m] = static_cast<char>(verdict);
     } else {
       decide_all();
     }
@@ -395,7 +395,7 @@ void signs_by_band_components(const std::vector<LeafT*>& leaves, const BandGrid&
         undecided[static_cast<size_t>(c)] = 1;
         continue;
       }
-      for (int32_t k = 0; k < count; ++k) inside_all[static_cast<size_t>(m[k])] = verdict;
+      for (int32_t k = 0; k < count; ++k) inside_all[static_cast<size_t>(m[k])] = static_cast<char>(verdict);
     }
     evaluations += local;
   });
@@ -449,7 +449,7 @@ void signs_by_band_components(const std::vector<LeafT*>& leaves, const BandGrid&
         if (from >= 0) {
           inside_all[static_cast<size_t>(g)] = inside_all[static_cast<size_t>(from)];
         } else {
-          inside_all[static_cast<size_t>(g)] = wn(p) > threshold;
+          inside_all[static_cast<size_t>(g)] = static_cast<char>(wn(p) > threshold);
           ++local;
         }
       }

@@ -129,7 +129,7 @@ TEST_CASE("camera: projection Jacobians against finite differences") {
       cp.R(k9 % 3, k9 / 3) += h;
       cm.R(k9 % 3, k9 / 3) -= h;
       const Eigen::Vector2d fd = (project(cp, x) - project(cm, x)) / (2 * h);
-      CHECK((fd - J.d_R.col(k9)).norm() < 1e-5 * (1 + fd.norm()));
+      CHECK((fd - J.d_matrix.col(k9)).norm() < 1e-5 * (1 + fd.norm()));
     }
   }
 }
@@ -148,14 +148,14 @@ TEST_CASE("camera: Jacobian wrt look-at parameters and chained through the 6D ro
     CHECK((fe - J.col(1)).norm() < 1e-5 * (1 + fe.norm()));
     CHECK((fdd - J.col(2)).norm() < 1e-5 * (1 + fdd.norm()));
 
-    // d pixel / d b6 = d_R * rot6d_jacobian(b6): the networks' chain rule.
+    // d pixel / d b6 = d_matrix * rot6d_jacobian(b6): the networks' chain rule.
     Vec6T<double> b;
     for (int i = 0; i < 6; ++i) b[i] = rng.normal();
     Camera cam = look_at(0, 0, d);
     cam.R = rot6d_to_matrix(b);
     ProjectionJacobians PJ;
     project(cam, x, PJ);
-    const Eigen::Matrix<double, 2, 6> Jb = PJ.d_R * rot6d_jacobian(b);
+    const Eigen::Matrix<double, 2, 6> Jb = PJ.d_matrix * rot6d_jacobian(b);
     for (int i = 0; i < 6; ++i) {
       Vec6T<double> bp = b, bm = b;
       bp[i] += 1e-6;
