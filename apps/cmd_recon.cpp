@@ -153,7 +153,8 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_flag("--refine-camera", o->refine,
                "test-time camera refinement (opt-in, docs/recon.md): reconstruct coarsely (--refine-res) for camera "
                "candidates turned in azimuth within +-(--refine-sweep) degrees, keep the one whose mesh's "
-               "silhouette best overlaps the input's object mask (alpha, --mask, else non-white pixels), then "
+               "silhouette best overlaps the object mask framing found (alpha, --mask, plain background or "
+               "--segment), then "
                "reconstruct with it");
   app.add_option("--refine-rounds", o->s.refine_rounds, "refinement rounds (implies --refine-camera when > 0)")
       ->check(in_range(0, 5));
@@ -161,7 +162,8 @@ std::function<int()> setup_recon(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--refine-mode", o->refine_mode,
                  "joint: reconstruct again for every candidate camera and score that mesh through that camera; "
-                 "mesh: align the one mesh reconstructed with the estimate (cheaper; did not help on the test split)")
+                 "mesh: align the one mesh reconstructed with the estimate (cheaper, but that mesh already fits the "
+                 "estimate's view)")
       ->capture_default_str()
       ->check(CLI::IsMember({"joint", "mesh"}));
   app.add_option("--refine-sweep", o->s.refine.sweep_azimuth_deg,
@@ -185,7 +187,7 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "local search bound of the camera distance: ratio within [1/(1+c), 1+c]")
       ->capture_default_str()
       ->check(in_range(0.01, 1.0));
-  app.add_flag("--no-preview", o->no_preview, "do not write the preview PNG");
+  app.add_flag("--no-preview", o->no_preview, "do not write the preview PNG nor <name>.mask.png");
   app.add_option("-j,--jobs", o->jobs, "images reconstructed in parallel (each also uses the worker threads)")
       ->capture_default_str()
       ->check(positive());

@@ -1,4 +1,4 @@
-// Reader of a prepared dataset (DESIGN.md "Prepared dataset layout") and the seeded batches both networks
+// Reader of a prepared dataset (docs/FORMATS.md) and the seeded batches both networks
 // train on: rendered views (views/NN.png), their cameras (views/NN.json) and SDF samples (samples.npy).
 //
 // Network input convention (shared by training and `sdfkit recon`, see network_image()):

@@ -58,9 +58,8 @@ struct ReconSettings {
   /// reconstructed with the round's start camera (cheaper).
   bool refine_joint = true;
   int refine_resolution = 33;    ///< grid of the intermediate meshes (the final resolution when that is lower)
-  /// The optimisation. Defaults measured on the synthetic test split (docs/results/sdf.md, "camera refinement"):
-  /// the joint objective, azimuth turns of -60..+60 degrees in 10 degree steps, no local search (with the joint
-  /// objective's noise, Nelder-Mead over 3 or 4 parameters lost more than it won).
+  /// The optimisation (docs/recon.md, "Camera refinement (`--refine-camera`)"): the joint objective, azimuth turns of -60..+60 degrees
+  /// in 10 degree steps, no local search (the joint objective's coarse meshes make it noisy for Nelder-Mead).
   CameraRefineSettings refine = recon_refine_defaults();
   /// How run() finds and frames the object in the input image.
   FramingSettings framing;
