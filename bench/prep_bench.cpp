@@ -211,14 +211,20 @@ std::string prep_bench_row_text(const PrepBenchRow& row) {
   using detail::bench_printf;
   const PrepareStatus& st = row.status;
   const double pct = 100.0 * static_cast<double>(st.active_voxels) / static_cast<double>(row.lattice_voxels);
+  // Columns of what a run did not measure (no dense baseline, no band points) read "-", not a zero.
+  const bool dense = row.dense_seconds > 0, checked = row.band_points > 0;
+  const std::string dense_cols = dense ? bench_printf(" %9.2f %9.2f", row.dense_seconds, row.dense_cpu_seconds)
+                                       : bench_printf(" %9s %9s", "-", "-");
+  const std::string error_cols =
+      checked ? bench_printf(" %9.5f %9.5f %7.2f%%", row.mean_abs_error, row.max_abs_error,
+                             100.0 * static_cast<double>(row.sign_ok) / static_cast<double>(row.band_points))
+              : bench_printf(" %9s %9s %8s", "-", "-", "-");
   std::string text = bench_printf(
-      "%-22s %7ld %5s %8.3f %8.3f %8.3f %8.3f %10ld %7.2f%% %8.2f %9.1f %9.2f %9.2f %9.5f %9.5f %7.2f%%\n",
-      row.shape.c_str(), row.triangles, st.sign == SignMethod::kPseudoNormal ? "pn" : "wn",
-      median(row.seconds_1_thread), median(row.cpu_seconds_1_thread), median(row.seconds_2_threads),
-      median(row.cpu_seconds_2_threads), st.active_voxels, pct, static_cast<double>(st.grid_bytes) / 1e6,
-      static_cast<double>(row.lattice_voxels) * 4e-6, row.dense_seconds, row.dense_cpu_seconds, row.mean_abs_error,
-      row.max_abs_error,
-      100.0 * static_cast<double>(row.sign_ok) / std::max<double>(1, static_cast<double>(row.band_points)));
+      "%-22s %7ld %5s %8.3f %8.3f %8.3f %8.3f %10ld %7.2f%% %8.2f %9.1f%s%s\n", row.shape.c_str(), row.triangles,
+      st.sign == SignMethod::kPseudoNormal ? "pn" : "wn", median(row.seconds_1_thread),
+      median(row.cpu_seconds_1_thread), median(row.seconds_2_threads), median(row.cpu_seconds_2_threads),
+      st.active_voxels, pct, static_cast<double>(st.grid_bytes) / 1e6, static_cast<double>(row.lattice_voxels) * 4e-6,
+      dense_cols.c_str(), error_cols.c_str());
   text += bench_printf(
       "  stages (wall s, last 1-thread run): mesh %.3f | grid: setup %.3f band %.3f insert %.3f sign %.3f (%ld "
       "probes) | samples %.3f (%ld candidates) | gt %.3f | files %.3f\n",
@@ -267,9 +273,10 @@ Json prep_bench_row_json(const PrepBenchRow& row) {
           {"dense_seconds_2_threads", row.dense_seconds},
           {"band_points", row.band_points},
           {"band_points_max_abs_sdf", row.band_points_max_abs_sdf},
-          {"mean_abs_error", row.mean_abs_error},
-          {"max_abs_error", row.max_abs_error},
-          {"sign_agreement", static_cast<double>(row.sign_ok) / std::max<double>(1, double(row.band_points))},
+          {"mean_abs_error", row.band_points > 0 ? Json(row.mean_abs_error) : Json()},
+          {"max_abs_error", row.band_points > 0 ? Json(row.max_abs_error) : Json()},
+          {"sign_agreement",
+           row.band_points > 0 ? Json(static_cast<double>(row.sign_ok) / static_cast<double>(row.band_points)) : Json()},
           {"peak_rss_mb_after_sparse", row.peak_rss_mb_after_sparse},
           {"peak_rss_mb_after_dense", row.peak_rss_mb_after_dense},
           {"gt_source", st.gt_source},

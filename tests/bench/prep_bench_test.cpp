@@ -103,6 +103,19 @@ TEST_CASE("prep bench formatters: header, every row with its stages, the closing
         "dense baseline = exact distance + winding sign at 257^3 points; peak RSS of the process 321 MB\n");
   r.band = 0.12;
   CHECK(prep_bench_footer(r).find("band 0.120000 (--band)") != std::string::npos);
+  // What a run did not measure reads "-" in the text and null in the JSON, never a zero.
+  PrepBenchRow c = a;
+  c.dense_seconds = 0;
+  c.band_points = 0;
+  c.sign_ok = 0;
+  const std::string lc = prep_bench_row_text(c);
+  CHECK(lc.rfind("closed torus 51k         51200    pn    1.500    1.250    0.750    1.500     169826    1.00%     2.50"
+                 "      67.9         -         -         -         -        -\n", 0) == 0);
+  PrepBenchResult rc = r;
+  rc.rows = {c};
+  const Json jc = prep_bench_json(rc);
+  CHECK(jc[0]["sign_agreement"].is_null());
+  CHECK(jc[0]["mean_abs_error"].is_null());
 
   const Json j = prep_bench_json(r);
   REQUIRE(j.size() == 2);
