@@ -211,8 +211,8 @@ Table make_table() {
 }
 
 const Table& table() {
-  static const Table t = make_table();
-  return t;
+  static const Table kTable = make_table();
+  return kTable;
 }
 
 // ---- keys ---------------------------------------------------------------------------------------------------

@@ -73,8 +73,8 @@ std::string to_string(Protocol p) {
 }
 
 const std::vector<double>& disn_threshold_percents() {
-  static const std::vector<double> t = {0.5, 1, 2, 5, 10, 20};
-  return t;
+  static const std::vector<double> kPercents = {0.5, 1, 2, 5, 10, 20};
+  return kPercents;
 }
 
 std::vector<std::pair<std::string, std::string>> metric_keys(Protocol p) {

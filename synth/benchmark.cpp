@@ -99,13 +99,13 @@ std::vector<fs::path> stale_files(const fs::path& dir, const std::set<std::strin
   if (!fs::exists(dir / "categories.json"))
     throw InvalidInput(dir.string() +
                        ": folder is not empty and holds no categories.json (not a synth output); choose another -o");
-  static const std::regex shape_name(R"([a-z]+_[0-9]{4,}\.ply)");
+  static const std::regex kShapeName(R"([a-z]+_[0-9]{4,}\.ply)");
   for (const auto& c : categories()) {
     const fs::path sub = dir / c.name;
     if (!fs::is_directory(sub)) continue;
     for (const auto& e : fs::directory_iterator(sub)) {
       const std::string name = e.path().filename().string();
-      if (!e.is_regular_file() || !std::regex_match(name, shape_name)) continue;
+      if (!e.is_regular_file() || !std::regex_match(name, kShapeName)) continue;
       if (!keep.count(c.name + "/" + name)) stale.push_back(e.path());
     }
   }

@@ -8,12 +8,12 @@
 namespace sdfkit {
 
 const std::vector<Category>& categories() {
-  static const std::vector<Category> list = {
+  static const std::vector<Category> kList = {
       {"02691156", "plane"},   {"02828884", "bench"},   {"02933112", "cabinet"}, {"02958343", "car"},
       {"03001627", "chair"},   {"03211117", "display"}, {"03636649", "lamp"},    {"03691459", "speaker"},
       {"04090263", "rifle"},   {"04256520", "sofa"},    {"04379243", "table"},   {"04401088", "phone"},
       {"04530566", "watercraft"}};
-  return list;
+  return kList;
 }
 
 size_t category_index(const std::string& key) {
@@ -27,12 +27,12 @@ size_t category_index(const std::string& key) {
 
 SynthShape generate_shape(size_t category, uint64_t seed) {
   using Maker = SynthShape (*)(Gen&);
-  static const Maker makers[] = {make_plane, make_bench,   make_cabinet, make_car,   make_chair,
+  static const Maker kMakers[] = {make_plane, make_bench,   make_cabinet, make_car,   make_chair,
                                  make_display, make_lamp,  make_speaker, make_rifle, make_sofa,
                                  make_table, make_phone,   make_watercraft};
   require(category < categories().size(), "generate_shape: category index out of range");
   Gen g(seed);
-  return makers[category](g);
+  return kMakers[category](g);
 }
 
 int Gen::choose(const std::vector<double>& weights) {
@@ -57,18 +57,18 @@ Vec3f Gen::pick(const std::vector<Vec3f>& pal, double amount) {
 }
 
 namespace palette {
-const std::vector<Vec3f> wood = {{0.55f, 0.36f, 0.2f}, {0.75f, 0.58f, 0.38f}, {0.36f, 0.22f, 0.12f},
-                                 {0.85f, 0.72f, 0.52f}};
-const std::vector<Vec3f> metal = {{0.62f, 0.63f, 0.66f}, {0.45f, 0.46f, 0.5f}, {0.78f, 0.76f, 0.7f}};
-const std::vector<Vec3f> fabric = {{0.7f, 0.2f, 0.18f}, {0.2f, 0.32f, 0.6f}, {0.3f, 0.5f, 0.3f},
-                                   {0.78f, 0.72f, 0.6f}, {0.45f, 0.45f, 0.47f}, {0.55f, 0.4f, 0.6f}};
-const std::vector<Vec3f> plastic = {{0.9f, 0.9f, 0.88f}, {0.15f, 0.15f, 0.16f}, {0.85f, 0.3f, 0.2f},
-                                    {0.25f, 0.5f, 0.75f}, {0.95f, 0.8f, 0.3f}};
-const std::vector<Vec3f> dark = {{0.08f, 0.08f, 0.1f}, {0.12f, 0.14f, 0.18f}, {0.18f, 0.18f, 0.2f}};
-const std::vector<Vec3f> paint = {{0.75f, 0.1f, 0.1f}, {0.1f, 0.25f, 0.6f}, {0.9f, 0.9f, 0.9f},
-                                  {0.2f, 0.2f, 0.22f}, {0.85f, 0.75f, 0.2f}, {0.3f, 0.55f, 0.35f},
-                                  {0.6f, 0.62f, 0.65f}};
-const std::vector<Vec3f> light = {{0.95f, 0.93f, 0.85f}, {0.98f, 0.9f, 0.6f}, {0.9f, 0.95f, 1.0f}};
+const std::vector<Vec3f> kWood = {{0.55f, 0.36f, 0.2f}, {0.75f, 0.58f, 0.38f}, {0.36f, 0.22f, 0.12f},
+                                  {0.85f, 0.72f, 0.52f}};
+const std::vector<Vec3f> kMetal = {{0.62f, 0.63f, 0.66f}, {0.45f, 0.46f, 0.5f}, {0.78f, 0.76f, 0.7f}};
+const std::vector<Vec3f> kFabric = {{0.7f, 0.2f, 0.18f}, {0.2f, 0.32f, 0.6f}, {0.3f, 0.5f, 0.3f},
+                                    {0.78f, 0.72f, 0.6f}, {0.45f, 0.45f, 0.47f}, {0.55f, 0.4f, 0.6f}};
+const std::vector<Vec3f> kPlastic = {{0.9f, 0.9f, 0.88f}, {0.15f, 0.15f, 0.16f}, {0.85f, 0.3f, 0.2f},
+                                     {0.25f, 0.5f, 0.75f}, {0.95f, 0.8f, 0.3f}};
+const std::vector<Vec3f> kDark = {{0.08f, 0.08f, 0.1f}, {0.12f, 0.14f, 0.18f}, {0.18f, 0.18f, 0.2f}};
+const std::vector<Vec3f> kPaint = {{0.75f, 0.1f, 0.1f}, {0.1f, 0.25f, 0.6f}, {0.9f, 0.9f, 0.9f},
+                                   {0.2f, 0.2f, 0.22f}, {0.85f, 0.75f, 0.2f}, {0.3f, 0.55f, 0.35f},
+                                   {0.6f, 0.62f, 0.65f}};
+const std::vector<Vec3f> kLight = {{0.95f, 0.93f, 0.85f}, {0.98f, 0.9f, 0.6f}, {0.9f, 0.95f, 1.0f}};
 }  // namespace palette
 
 }  // namespace sdfkit

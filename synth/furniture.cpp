@@ -65,9 +65,9 @@ void add_stretchers(Gen& g, const std::array<LegLine, 4>& legs, double y, double
 // ------------------------------------------------------------------------------------------------ chair
 SynthShape make_chair(Gen& g) {
   const double W = g.u(0.38, 0.62), D = g.u(0.38, 0.56), H = g.u(0.38, 0.52), T = g.u(0.025, 0.08);
-  const Vec3f frame_c = g.p(0.6) ? g.pick(palette::wood) : g.pick(palette::metal);
-  const Vec3f seat_c = g.p(0.5) ? frame_c : g.pick(palette::fabric);
-  const Vec3f back_c = g.p(0.7) ? seat_c : g.pick(palette::fabric);
+  const Vec3f frame_c = g.p(0.6) ? g.pick(palette::kWood) : g.pick(palette::kMetal);
+  const Vec3f seat_c = g.p(0.5) ? frame_c : g.pick(palette::kFabric);
+  const Vec3f back_c = g.p(0.7) ? seat_c : g.pick(palette::kFabric);
   // Seat.
   if (g.p(0.5))
     g.add("seat", make_rounded_box(Vec3(0, H - T / 2, 0), Vec3(W / 2, T / 2, D / 2), g.u(0.005, T / 2)), seat_c);
@@ -92,7 +92,7 @@ SynthShape make_chair(Gen& g) {
     }
     back_posts_from_legs = style == 0 && g.p(0.5);
   } else if (base == 1) {
-    const Vec3f dark = g.pick(palette::dark);
+    const Vec3f dark = g.pick(palette::kDark);
     const double col_r = g.u(0.02, 0.035), foot_y = g.u(0.05, 0.08);
     g.add("column", make_cylinder(Vec3(0, foot_y, 0), Vec3(0, H - T * 0.5, 0), col_r, 14), frame_c);
     const double mx = g.u(0.06, 0.12), mz = g.u(0.06, 0.12);
@@ -224,8 +224,8 @@ SynthShape make_table(Gen& g) {
   const double T = g.u(0.02, 0.06);
   const bool round = g.p(0.25);
   if (round) L = Dp = g.u(0.6, 1.2);
-  const Vec3f top_c = g.p(0.7) ? g.pick(palette::wood) : g.pick(palette::plastic);
-  const Vec3f leg_c = g.p(0.6) ? top_c : g.pick(palette::metal);
+  const Vec3f top_c = g.p(0.7) ? g.pick(palette::kWood) : g.pick(palette::kPlastic);
+  const Vec3f leg_c = g.p(0.6) ? top_c : g.pick(palette::kMetal);
   if (round)
     g.add("top", make_cylinder(Vec3(0, H - T, 0), Vec3(0, H, 0), L / 2, 32), top_c);
   else if (g.p(0.5))
@@ -253,7 +253,7 @@ SynthShape make_table(Gen& g) {
         g.add("apron", make_box_part(Vec3(sx * hx, y, 0), Vec3(at / 2, ah / 2, hz)), leg_c);
       if (g.p(0.3))
         g.add("drawer_knob", make_ellipsoid(Vec3(0, y, hz + at / 2 + 0.01), Vec3(0.015, 0.015, 0.012), Mat3::Identity(), 3),
-              g.pick(palette::metal));
+              g.pick(palette::kMetal));
     }
     if (g.p(0.35)) {
       const double y = g.u(0.08, 0.25);
@@ -311,7 +311,7 @@ SynthShape make_table(Gen& g) {
         const double y = 0.01 + dh * (i + 0.5) / nd;
         g.add("handle", make_bar(Vec3(x - dw * 0.2, y, Dp / 2 - 0.02), Vec3(x + dw * 0.2, y, Dp / 2 - 0.02), 0.012, 0.02,
                                  Vec3::UnitY()),
-              g.pick(palette::metal));
+              g.pick(palette::kMetal));
       }
     }
   }
@@ -321,8 +321,8 @@ SynthShape make_table(Gen& g) {
 // ------------------------------------------------------------------------------------------------ bench
 SynthShape make_bench(Gen& g) {
   const double L = g.u(0.9, 2.0), D = g.u(0.3, 0.5), H = g.u(0.38, 0.5);
-  const Vec3f wood = g.pick(palette::wood);
-  const Vec3f frame = g.p(0.5) ? g.pick(palette::metal) : g.pick(palette::dark);
+  const Vec3f wood = g.pick(palette::kWood);
+  const Vec3f frame = g.p(0.5) ? g.pick(palette::kMetal) : g.pick(palette::kDark);
   const bool slatted = g.p(0.8);
   const double st = g.u(0.02, 0.045);  // seat board thickness
   if (slatted) {
@@ -412,9 +412,9 @@ SynthShape make_sofa(Gen& g) {
   const double arm_w = g.p(0.1) ? 0.0 : g.u(0.08, 0.25);
   const double W = seats * seat_w + 2 * arm_w, D = g.u(0.75, 1.0), SH = g.u(0.38, 0.48);
   const double leg_h = g.p(0.2) ? 0.0 : g.u(0.03, 0.15);
-  const Vec3f body = g.pick(palette::fabric);
+  const Vec3f body = g.pick(palette::kFabric);
   const Vec3f cushion = g.p(0.7) ? body : g.jitter(body, 0.12);
-  const Vec3f legs = g.p(0.5) ? g.pick(palette::wood) : g.pick(palette::dark);
+  const Vec3f legs = g.p(0.5) ? g.pick(palette::kWood) : g.pick(palette::kDark);
   const double cush_t = g.u(0.08, 0.16);
   const double base_top = SH - cush_t;
   const double back_t = g.u(0.12, 0.25);
@@ -470,7 +470,7 @@ SynthShape make_sofa(Gen& g) {
   // Throw pillows.
   if (g.p(0.4)) {
     const int n = g.n(1, 2);
-    const Vec3f pc = g.pick(palette::fabric);
+    const Vec3f pc = g.pick(palette::kFabric);
     for (int i = 0; i < n; ++i) {
       const double sx = i == 0 ? -1 : 1;
       g.add("pillow", make_rounded_box(Vec3(sx * (inner - 0.2), SH + 0.18, -D / 2 + back_t + 0.1),
@@ -496,9 +496,9 @@ SynthShape make_sofa(Gen& g) {
 SynthShape make_cabinet(Gen& g) {
   const double W = g.u(0.4, 1.3), H = g.u(0.5, 2.0), D = g.u(0.3, 0.62);
   const double t = g.u(0.015, 0.03);
-  const Vec3f body = g.p(0.6) ? g.pick(palette::wood) : g.pick(palette::plastic);
-  const Vec3f front = g.p(0.6) ? body : g.pick(palette::paint);
-  const Vec3f metal = g.pick(palette::metal);
+  const Vec3f body = g.p(0.6) ? g.pick(palette::kWood) : g.pick(palette::kPlastic);
+  const Vec3f front = g.p(0.6) ? body : g.pick(palette::kPaint);
+  const Vec3f metal = g.pick(palette::kMetal);
   // Base: plinth, legs or nothing.
   const int base = g.choose({0.4, 0.35, 0.25});
   double y0 = 0;

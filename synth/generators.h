@@ -30,7 +30,7 @@ struct Gen {
 };
 
 namespace palette {
-extern const std::vector<Vec3f> wood, metal, fabric, plastic, dark, paint, light;
+extern const std::vector<Vec3f> kWood, kMetal, kFabric, kPlastic, kDark, kPaint, kLight;
 }
 
 SynthShape make_plane(Gen& g);

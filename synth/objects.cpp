@@ -13,8 +13,8 @@ SynthShape make_display(Gen& g) {
   const double pt = g.u(0.012, 0.04);  // panel thickness
   const double bez = g.u(0.006, 0.035);
   const bool crt = g.p(0.15);
-  const Vec3f case_c = g.pick(palette::plastic);
-  const Vec3f screen_c = g.pick(palette::dark);
+  const Vec3f case_c = g.pick(palette::kPlastic);
+  const Vec3f screen_c = g.pick(palette::kDark);
   const double stand_h = g.u(0.06, 0.2);
   const double yc = stand_h + H / 2;  // panel centre height
   // Screen: a dark slab recessed behind the bezel bars (the bezel is a frame around it).
@@ -72,7 +72,7 @@ SynthShape make_display(Gen& g) {
   } else if (stand == 2) {
     const double r = g.u(0.008, 0.015);
     const std::vector<Vec3> path = {Vec3(0, 0.01, zb - 0.06), Vec3(0, yc * 0.5, zb - 0.08), Vec3(0, yc, zb - 0.01)};
-    g.add("arm", make_tube(path, {r}, 10), g.pick(palette::metal));
+    g.add("arm", make_tube(path, {r}, 10), g.pick(palette::kMetal));
     g.add("base", make_cylinder(Vec3(0, 0, zb - 0.06), Vec3(0, 0.012, zb - 0.06), g.u(0.07, 0.12), 20), case_c);
   } else {
     g.add("base", make_box_part(Vec3(0, stand_h / 2, -0.02), Vec3(W * 0.3, stand_h / 2, g.u(0.04, 0.1))), case_c);
@@ -82,7 +82,7 @@ SynthShape make_display(Gen& g) {
     for (int i = 0; i < n; ++i)
       g.add("button", make_box_part(Vec3(W * 0.3 + i * 0.02, yc - H / 2 + bez / 2, bz + 0.002),
                                     Vec3(0.006, std::min(0.006, bez * 0.4), 0.003)),
-            g.pick(palette::dark));
+            g.pick(palette::kDark));
   }
   return g.b.build();
 }
@@ -100,8 +100,8 @@ void add_shade(Gen& g, const Vec3& top, const Vec3& dir, double len, double r_to
 }  // namespace
 
 SynthShape make_lamp(Gen& g) {
-  const Vec3f metal = g.pick(palette::metal);
-  const Vec3f shade_c = g.p(0.5) ? g.pick(palette::light) : g.pick(palette::plastic);
+  const Vec3f metal = g.pick(palette::kMetal);
+  const Vec3f shade_c = g.p(0.5) ? g.pick(palette::kLight) : g.pick(palette::kPlastic);
   const Vec3f bulb = Vec3f(1.0f, 0.95f, 0.7f);
   const int kind = g.choose({0.28, 0.3, 0.15, 0.15, 0.12});  // desk arm, table/floor, arc, multi-arm, pendant
   // Base.
@@ -146,7 +146,7 @@ SynthShape make_lamp(Gen& g) {
     const bool bulbous = Hp < 0.7 && g.p(0.4);
     if (bulbous) {
       g.add("body", make_ellipsoid(Vec3(0, base_top + Hp * 0.3, 0), Vec3(0.08, Hp * 0.3, 0.08), Mat3::Identity(), 6),
-            g.pick(palette::paint));
+            g.pick(palette::kPaint));
     }
     g.add("pole", make_cylinder(Vec3(0, base_top - 0.005, 0), Vec3(0, base_top + Hp, 0), pr, 10), metal);
     const double sl = Hp < 0.7 ? g.u(0.15, 0.3) : g.u(0.25, 0.4);
@@ -191,7 +191,7 @@ SynthShape make_lamp(Gen& g) {
     const double Hc = g.u(1.0, 1.6);
     g.add("canopy", make_cylinder(Vec3(0, Hc, 0), Vec3(0, Hc + 0.03, 0), 0.06, 16), metal);
     const double cord = g.u(0.3, 0.8);
-    g.add("cord", make_cylinder(Vec3(0, Hc - cord, 0), Vec3(0, Hc + 0.01, 0), 0.004, 6), g.pick(palette::dark));
+    g.add("cord", make_cylinder(Vec3(0, Hc - cord, 0), Vec3(0, Hc + 0.01, 0), 0.004, 6), g.pick(palette::kDark));
     const double sl = g.u(0.15, 0.35), rb = g.u(0.15, 0.35);
     if (g.p(0.3)) {
       g.add("shade", make_ellipsoid(Vec3(0, Hc - cord - sl * 0.4, 0), Vec3(rb, sl * 0.5, rb), Mat3::Identity(), 6),
@@ -216,9 +216,9 @@ SynthShape make_speaker(Gen& g) {
     H = W;
     D = W;
   }
-  const Vec3f box_c = g.p(0.6) ? g.pick(palette::wood) : g.pick(palette::plastic);
-  const Vec3f drv = g.pick(palette::dark);
-  const Vec3f cone_c = g.pick(palette::metal);
+  const Vec3f box_c = g.p(0.6) ? g.pick(palette::kWood) : g.pick(palette::kPlastic);
+  const Vec3f drv = g.pick(palette::kDark);
+  const Vec3f cone_c = g.pick(palette::kMetal);
   const double feet_h = g.p(0.4) ? g.u(0.02, 0.06) : 0.0;
   const double y0 = feet_h;
   if (kind == 2) {
@@ -303,9 +303,9 @@ SynthShape make_speaker(Gen& g) {
 SynthShape make_rifle(Gen& g) {
   // Length along z, muzzle at +z, receiver around the origin.
   const double rl = g.u(0.18, 0.3), rh = g.u(0.05, 0.09), rw = g.u(0.03, 0.05);
-  const Vec3f metal = g.pick(palette::dark);
-  const Vec3f furn = g.p(0.5) ? g.pick(palette::wood) : g.pick(palette::dark, 0.08);
-  const Vec3f steel = g.pick(palette::metal);
+  const Vec3f metal = g.pick(palette::kDark);
+  const Vec3f furn = g.p(0.5) ? g.pick(palette::kWood) : g.pick(palette::kDark, 0.08);
+  const Vec3f steel = g.pick(palette::kMetal);
   g.add("receiver", make_box_part(Vec3(0, 0, 0), Vec3(rw / 2, rh / 2, rl / 2)), metal);
   // Barrel.
   const double bl = g.u(0.35, 0.65), br = g.u(0.008, 0.014);
@@ -417,9 +417,9 @@ SynthShape make_phone(Gen& g) {
   const double W = g.u(0.055, 0.08);
   const double H = kind == 0 ? g.u(0.12, 0.17) : g.u(0.1, 0.15);
   const double T = kind == 0 ? g.u(0.007, 0.012) : g.u(0.012, 0.022);
-  const Vec3f body_c = g.pick(palette::plastic);
-  const Vec3f screen_c = g.pick(palette::dark);
-  const Vec3f key_c = g.pick(palette::plastic);
+  const Vec3f body_c = g.pick(palette::kPlastic);
+  const Vec3f screen_c = g.pick(palette::kDark);
+  const Vec3f key_c = g.pick(palette::kPlastic);
   g.add("body", make_rounded_box(Vec3(0, 0, 0), Vec3(W / 2, H / 2, T / 2), g.u(0.002, std::min(0.01, T / 2))), body_c);
   const double m = g.u(0.002, 0.006);
   if (kind == 0) {
@@ -454,7 +454,7 @@ SynthShape make_phone(Gen& g) {
     if (kind == 2) {
       const double al = g.u(0.03, 0.08);
       const double ar = g.u(0.002, 0.004);
-      const Vec3f ac = g.pick(palette::dark);
+      const Vec3f ac = g.pick(palette::kDark);
       g.add("antenna", make_cylinder(Vec3(W * 0.3, H / 2 - 0.005, -T * 0.1), Vec3(W * 0.3, H / 2 + al, -T * 0.1), ar, 8),
             ac);
     }

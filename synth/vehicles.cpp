@@ -28,10 +28,10 @@ SynthShape make_car(Gen& g) {
     body_h = g.u(0.55, 0.7);
     cabin_h = g.u(0.75, 1.0);
   }
-  const Vec3f paint = g.pick(palette::paint);
-  const Vec3f glass = g.pick(palette::dark);
+  const Vec3f paint = g.pick(palette::kPaint);
+  const Vec3f glass = g.pick(palette::kDark);
   const Vec3f tyre = Vec3f(0.06f, 0.06f, 0.06f);
-  const Vec3f chrome = g.pick(palette::metal);
+  const Vec3f chrome = g.pick(palette::kMetal);
   const double wr = g.u(0.3, 0.4);  // wheel radius
   // Lower body: a loft of rounded-rectangle (superellipse) sections from the tail to the nose, the bonnet
   // sloping down towards the nose and the tail slightly lower than the middle.
@@ -192,10 +192,10 @@ SynthShape make_plane(Gen& g) {
   const int kind = g.choose({0.45, 0.2, 0.2, 0.15});  // airliner, prop plane, fighter, business jet
   const double L = g.u(8.0, 12.0);
   const double R = L * (kind == 0 ? g.u(0.045, 0.065) : g.u(0.035, 0.055));
-  const Vec3f body = g.pick(palette::paint);
-  const Vec3f trim = g.p(0.5) ? body : g.pick(palette::paint);
-  const Vec3f dark = g.pick(palette::dark);
-  const Vec3f metal = g.pick(palette::metal);
+  const Vec3f body = g.pick(palette::kPaint);
+  const Vec3f trim = g.p(0.5) ? body : g.pick(palette::kPaint);
+  const Vec3f dark = g.pick(palette::kDark);
+  const Vec3f metal = g.pick(palette::kMetal);
   // Fuselage: a tube with a radius profile, the tail swept up.
   {
     const int n = 16;
@@ -341,10 +341,10 @@ SynthShape make_watercraft(Gen& g) {
     B = L * g.u(0.18, 0.3);
     Dh = B * g.u(0.35, 0.5);
   }
-  const Vec3f hull_c = g.pick(palette::paint);
-  const Vec3f deck_c = g.p(0.5) ? g.pick(palette::wood) : g.pick(palette::light);
-  const Vec3f dark = g.pick(palette::dark);
-  const Vec3f metal = g.pick(palette::metal);
+  const Vec3f hull_c = g.pick(palette::kPaint);
+  const Vec3f deck_c = g.p(0.5) ? g.pick(palette::kWood) : g.pick(palette::kLight);
+  const Vec3f dark = g.pick(palette::kDark);
+  const Vec3f metal = g.pick(palette::kMetal);
   // Hull: loft of U/V cross-sections from stern (-z) to bow (+z), closed by the deck line.
   const double vee = g.u(0.5, 1.6);             // bottom shape exponent: < 1 V-ish, > 1 U-ish
   const double stern_w = g.u(0.55, 0.95);       // transom width fraction
@@ -473,7 +473,7 @@ SynthShape make_watercraft(Gen& g) {
       const double z = sz - L * 0.05 - f * L * 0.08;
       const double fr = B * 0.08;
       const double fh = Dh * g.u(0.6, 1.0);
-      const Vec3f fc = g.pick(palette::paint);
+      const Vec3f fc = g.pick(palette::kPaint);
       g.add("funnel", make_cone(Vec3(0, y - 0.1, z), Vec3(0, y + fh, z - fr * 0.3), fr, fr * 0.9, 14), fc);
     }
     g.add("mast", make_cylinder(Vec3(0, y - 0.1, sz + L * 0.06), Vec3(0, y + Dh * 1.5, sz + L * 0.06), 0.06, 8), metal);
@@ -496,7 +496,7 @@ SynthShape make_watercraft(Gen& g) {
       for (const double sx : {-1.0, 1.0})
         g.add("oar", make_cylinder(Vec3(sx * B * 0.2, deck_y + 0.08, -L * 0.3), Vec3(sx * B * 0.35, deck_y + 0.1, L * 0.2),
                                    0.02, 8),
-              g.pick(palette::wood));
+              g.pick(palette::kWood));
   }
   return g.b.build();
 }
