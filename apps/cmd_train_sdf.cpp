@@ -45,6 +45,9 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
     std::string encoder, point_mlp, decoder;
     double minutes = 0;
     std::string zoom_range = "0.7,1.6";
+    std::string occlusion = "none";
+    bool mask_channel = false;
+    int critic_size = 56;
     bool json = false;
   };
   auto o = std::make_shared<Opts>();
@@ -106,6 +109,38 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   app.add_option("--zoom-range", o->zoom_range,
                  "MIN,MAX: range of the zoom factor (log-uniform; lowered where the object would leave the frame)")
       ->capture_default_str();
+  app.add_option("--occlusion", o->occlusion,
+                 "occlusion augmentation (the occlusion paper's protocol): none; half (the left or right half of the "
+                 "object's box removed); rect (a rectangle of 0.25-0.5 of the image side on the object); mixed (half "
+                 "or rect). Removed pixels are white; with --mask-channel the network also reads their mask")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"none", "half", "rect", "mixed"}));
+  app.add_option("--occlusion-prob", s.occlusion.prob, "probability of occluding a training image")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
+  app.add_flag("--mask-channel", o->mask_channel,
+               "the network reads a fourth input channel, the missing-data mask (1 = pixel unknown, e.g. occluded), "
+               "so that missing pixels are not taken for background; --init may name an RGB model of the same "
+               "architecture (its first convolution gets zero mask weights)");
+  app.add_option("--adversarial", s.adversarial.weight,
+                 "weight of the occlusion paper's conditional patch critic (0 = off): each item's predicted field is "
+                 "rendered as a soft silhouette through its camera and judged, stacked on the input image, against the "
+                 "unoccluded object's silhouette; fine-tune a trained model with it (--init or --resume)")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1e3));
+  app.add_option("--critic-size", o->critic_size,
+                 "side of the critic's input and of the silhouette render: 14 * 2^k (14, 28, 56, 112, 224); the "
+                 "critic's patch map is 14 x 14")
+      ->capture_default_str();
+  app.add_option("--critic-lr", s.adversarial.critic.lr, "Adam learning rate of the critic (beta1 0.5)")
+      ->capture_default_str();
+  app.add_option("--silhouette-samples", s.adversarial.render.samples,
+                 "samples per pixel ray searched for the smallest predicted value (then 4 refinement samples)")
+      ->capture_default_str()
+      ->check(positive());
+  app.add_option("--silhouette-temperature", s.adversarial.temperature,
+                 "alpha = sigmoid(-prediction / T) at each ray's point of smallest prediction (prediction = 10 x sdf)")
+      ->capture_default_str();
   app.add_option("--weight-decay", s.weight_decay, "L2 weight decay (coupled, as DISN's regulariser)")
       ->capture_default_str();
   app.add_option("--grad-clip", s.grad_clip, "clip the gradient norm to this value (0 = off)")->capture_default_str();
@@ -138,6 +173,9 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
     s.net.point_mlp = parse_widths(o->point_mlp, "--point-mlp");
     s.net.decoder = parse_widths(o->decoder, "--decoder");
     s.time_limit_seconds = o->minutes * 60.0;
+    s.occlusion.kind = parse_occlusion_kind(o->occlusion);
+    s.net.input_channels = o->mask_channel ? 4 : 3;
+    s.adversarial.critic.size = s.adversarial.render.size = o->critic_size;
     std::tie(s.zoom.min, s.zoom.max) = parse_positive_range(o->zoom_range, "train sdf: --zoom-range");
     // In an MPI job (mpirun/srun, nets/comm.h) every rank trains; rank 0 alone reports and writes files.
     const bool root = Comm::world().is_root();

@@ -435,4 +435,87 @@ void zoom_images(MatrixXfR& images, std::vector<Camera>& cameras, const ZoomAugm
   });
 }
 
+Json OcclusionAugmentSettings::to_json() const { return {{"kind", to_string(kind)}, {"prob", prob}}; }
+
+OcclusionAugmentSettings::Kind parse_occlusion_kind(const std::string& name) {
+  using Kind = OcclusionAugmentSettings::Kind;
+  if (name == "none") return Kind::kNone;
+  if (name == "half") return Kind::kHalf;
+  if (name == "rect") return Kind::kRect;
+  if (name == "mixed") return Kind::kMixed;
+  throw InvalidInput("unknown occlusion '" + name + "' (use none, half, rect or mixed)");
+}
+
+std::string to_string(OcclusionAugmentSettings::Kind kind) {
+  using Kind = OcclusionAugmentSettings::Kind;
+  switch (kind) {
+    case Kind::kNone: return "none";
+    case Kind::kHalf: return "half";
+    case Kind::kRect: return "rect";
+    case Kind::kMixed: return "mixed";
+  }
+  return "none";
+}
+
+Eigen::VectorXf occlude_network_image(Eigen::Ref<Eigen::VectorXf> image, int size, const OcclusionSettings& settings,
+                                      uint64_t seed) {
+  const int64_t n = static_cast<int64_t>(size) * size;
+  require(size > 0 && image.size() == 3 * n, "occlusion: the image is not 3 square channels of the given size");
+  // RGBA view of the network image, the object (alpha 1) being its non-white pixels.
+  Image rgba(size, size, 4);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const int64_t i = static_cast<int64_t>(y) * size + x;
+      const float r = image[i], g = image[n + i], b = image[2 * n + i];
+      rgba.at(x, y, 0) = r;
+      rgba.at(x, y, 1) = g;
+      rgba.at(x, y, 2) = b;
+      rgba.at(x, y, 3) = is_ink(r, g, b) ? 1.0f : 0.0f;
+    }
+  const Image removed = apply_occlusion(rgba, settings, seed);
+  Eigen::VectorXf mask(n);
+  for (int64_t i = 0; i < n; ++i) {
+    mask[i] = removed.data[static_cast<size_t>(i)];
+    if (mask[i] > 0) image[i] = image[n + i] = image[2 * n + i] = kNetBackground;
+  }
+  return mask;
+}
+
+void occlude_images(MatrixXfR& images, MatrixXfR& masks, const OcclusionAugmentSettings& o, uint64_t seed,
+                    uint64_t stream) {
+  require(o.prob >= 0 && o.prob <= 1, "occlusion augmentation: the probability must be in [0, 1]");
+  const int S = images.rows() ? square_side(images.cols(), "occlusion augmentation") : 0;
+  masks.setZero(images.rows(), static_cast<Eigen::Index>(S) * S);
+  if (!o.enabled()) return;
+  using Kind = OcclusionAugmentSettings::Kind;
+  tbb::parallel_for(Eigen::Index(0), images.rows(), [&](Eigen::Index b) {
+    Rng rng = Rng::derived(seed ^ 0x0cc1d0e5ULL, stream + static_cast<uint64_t>(b));
+    // Every draw is made whatever the outcome, so image b's choices never depend on earlier coins.
+    const bool occlude = rng.uniform() < o.prob;
+    const bool rect = o.kind == Kind::kRect || (o.kind == Kind::kMixed && rng.uniform() < 0.5);
+    const bool left = rng.uniform() < 0.5;
+    const uint64_t rect_seed = rng.next();
+    if (!occlude) return;
+    OcclusionSettings st;
+    st.mode = rect ? OcclusionMode::kRect : (left ? OcclusionMode::kLeft : OcclusionMode::kRight);
+    Eigen::VectorXf row = images.row(b).transpose();
+    masks.row(b) = occlude_network_image(row, S, st, rect_seed).transpose();
+    images.row(b) = row.transpose();
+  });
+}
+
+Eigen::VectorXf network_input(const Eigen::Ref<const Eigen::VectorXf>& rgb, const Eigen::VectorXf* mask, int channels) {
+  require(channels == 3 || channels == 4, "network input: 3 (RGB) or 4 (RGB + mask) channels");
+  const Eigen::Index n = rgb.size() / 3;
+  require(rgb.size() == 3 * n && (!mask || mask->size() == n), "network input: mask and image sizes differ");
+  if (channels == 3) return rgb;
+  Eigen::VectorXf out(4 * n);
+  out.head(3 * n) = rgb;
+  if (mask)
+    out.tail(n) = *mask;
+  else
+    out.tail(n).setZero();
+  return out;
+}
+
 }  // namespace sdfkit

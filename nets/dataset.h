@@ -8,6 +8,7 @@
 
 #include "camera/camera.h"
 #include "camera/image.h"
+#include "camera/occlusion.h"
 #include "core/files.h"
 #include "core/types.h"
 
@@ -104,6 +105,7 @@ struct SdfBatch {
   Eigen::VectorXf sdf;              ///< B * N raw SDF values (object frame units)
   std::vector<int> shape_index;     ///< B indices into the dataset
   std::vector<int> view_index;      ///< B view numbers
+  MatrixXfR masks;                  ///< B x (137 * 137) missing-data masks (occlude_images); empty = nothing missing
   int points_per_item = 0;          ///< N
   [[nodiscard]] int size() const { return static_cast<int>(shape_index.size()); }
 };
@@ -204,5 +206,41 @@ Eigen::VectorXf zoom_image(const Eigen::Ref<const Eigen::VectorXf>& image, int s
 /// The largest magnification that keeps the image's non-white pixels (any channel below 1 - 0.05) at least one
 /// pixel inside its border; +infinity for an all-white image.
 double max_zoom_inside(const Eigen::Ref<const Eigen::VectorXf>& image, int size);
+
+/// Occlusion augmentation (the occlusion paper's protocol, `train sdf --occlusion`): parts of the object's image are
+/// missing data. A removed pixel becomes the white background in RGB and 1 in the image's missing-data mask, the
+/// fourth input channel of an RGB + mask network (SdfNetConfig::input_channels; an RGB network sees only the white,
+/// which is the paper's "set to transparent"). The geometry is camera/occlusion.h's on the network image, the object
+/// being its non-white pixels (is_ink):
+///   - half: the left or the right half (coin flip) of the object's box removed, split at the box's centre column;
+///   - rect: one rectangle of 0.25-0.5 of the image side centred in the object's box;
+///   - mixed: half or rect (coin flip).
+/// With probability `prob` an image is occluded. Image b draws from Rng::derived(seed, stream + b) only.
+struct OcclusionAugmentSettings {
+  enum class Kind { kNone, kHalf, kRect, kMixed };
+  Kind kind = Kind::kNone;
+  double prob = 0.5;  ///< probability of occluding an image, [0, 1]
+
+  [[nodiscard]] bool enabled() const { return kind != Kind::kNone && prob > 0; }
+  [[nodiscard]] Json to_json() const;
+};
+/// "none" | "half" | "rect" | "mixed" (InvalidInput otherwise).
+OcclusionAugmentSettings::Kind parse_occlusion_kind(const std::string& name);
+std::string to_string(OcclusionAugmentSettings::Kind kind);
+
+/// Apply `settings` (camera/occlusion.h) to one network image (3 * S * S channels-first, white background) in place:
+/// removed pixels become white. Returns the missing-data mask (S * S, row by row, 1 = removed).
+Eigen::VectorXf occlude_network_image(Eigen::Ref<Eigen::VectorXf> image, int size, const OcclusionSettings& settings,
+                                      uint64_t seed);
+
+/// Occlude B x (3 * S * S) rows in place (see OcclusionAugmentSettings); `masks` becomes B x (S * S), 1 = removed
+/// (all zero for images left whole). Throws InvalidInput on settings out of range or rows that are not 3 square
+/// channels.
+void occlude_images(MatrixXfR& images, MatrixXfR& masks, const OcclusionAugmentSettings& settings, uint64_t seed,
+                    uint64_t stream);
+
+/// The input of a network with `channels` input channels (3 or 4) from a 3 * S * S RGB network image and its S * S
+/// missing-data mask (null = nothing missing). channels 3 drops the mask (its pixels are already white); 4 appends it.
+Eigen::VectorXf network_input(const Eigen::Ref<const Eigen::VectorXf>& rgb, const Eigen::VectorXf* mask, int channels);
 
 }  // namespace sdfkit

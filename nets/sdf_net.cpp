@@ -34,6 +34,7 @@ SdfVariant sdf_variant_from_string(const std::string& s) {
 Json SdfNetConfig::to_json() const {
   return {{"variant", to_string(variant)},
           {"image_size", image_size},
+          {"input_channels", input_channels},
           {"encoder_channels", encoder_channels},
           {"extra_convs", extra_convs},
           {"first_stride", first_stride},
@@ -50,6 +51,7 @@ SdfNetConfig SdfNetConfig::from_json(const Json& j) {
   try {
     c.variant = sdf_variant_from_string(j.at("variant").get<std::string>());
     c.image_size = j.at("image_size").get<int>();
+    c.input_channels = j.value("input_channels", 3);  // absent in models written before the mask channel existed
     c.encoder_channels = j.at("encoder_channels").get<std::vector<int>>();
     c.extra_convs = j.at("extra_convs").get<int>();
     c.first_stride = j.value("first_stride", 2);  // absent in models written before the option existed
@@ -157,9 +159,10 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
   require(!c.point_mlp.empty() && !c.decoder.empty(), "SDF network: point MLP and decoder need widths");
   require(c.sdf_scale > 0, "SDF network: sdf_scale must be positive");
   require(c.first_stride == 1 || c.first_stride == 2, "SDF network: first_stride must be 1 or 2");
+  require(c.input_channels == 3 || c.input_channels == 4, "SDF network: input_channels must be 3 (RGB) or 4 (RGB + mask)");
   Impl& m = *impl_;
   // Encoder.
-  int in_c = 3, size = c.image_size;
+  int in_c = c.input_channels, size = c.image_size;
   for (size_t k = 0; k < c.encoder_channels.size(); ++k) {
     const int out_c = c.encoder_channels[k];
     require(out_c > 0, "SDF network: encoder channels must be positive");
@@ -252,7 +255,7 @@ double SdfNetT<T>::train_step_flops(int batch, int points) const {
   const int64_t S = config_.image_size, P = points;
   // Per item: forward f, backward 2f (weights + inputs) less the input gradients that are not computed.
   double fwd = 0, no_dx = 0;
-  Shape in{1, 3, S, S};
+  Shape in{1, config_.input_channels, S, S};
   for (size_t k = 0; k < m.stages.size(); ++k) {
     double first = 0;
     Shape out;
@@ -302,9 +305,9 @@ void SdfNetT<T>::forward(const TensorT<T>& images, const std::vector<Camera>& ca
   require_rank(images, 4, "SDF network images");
   require_rank(points, 3, "SDF network points");
   const int64_t B = images.dim(0), N = points.dim(1);
-  require(images.dim(1) == 3 && images.dim(2) == S && images.dim(3) == S,
-          "SDF network: images must be B x 3 x " + std::to_string(S) + " x " + std::to_string(S) + ", got " +
-              shape_string(images.shape));
+  require(images.dim(1) == config_.input_channels && images.dim(2) == S && images.dim(3) == S,
+          "SDF network: images must be B x " + std::to_string(config_.input_channels) + " x " + std::to_string(S) +
+              " x " + std::to_string(S) + ", got " + shape_string(images.shape));
   require(points.dim(0) == B && points.dim(2) == 3, "SDF network: points must be B x N x 3");
   require(static_cast<int64_t>(cameras.size()) == B, "SDF network: one camera per image");
   ws.B = B;
@@ -441,7 +444,7 @@ typename SdfNetT<T>::ShapeCode SdfNetT<T>::encode(const T* image, const Camera& 
   const int S = config_.image_size;
   ShapeCode code;
   code.camera = camera;
-  TensorT<T> x({1, 3, S, S});
+  TensorT<T> x({1, config_.input_channels, S, S});
   for (int64_t i = 0; i < x.size(); ++i) x[i] = image[i] - T(0.5);
   code.maps.resize(m.stages.size());
   const TensorT<T>* in = &x;
@@ -573,6 +576,27 @@ void SdfNetT<T>::field(const ShapeCode& code, const Points& points, Eigen::Vecto
   predict(code, points.template cast<float>(), pred, chunk);
   const double sign = config_.variant == SdfVariant::kBinary ? -1.0 : 1.0;
   values = pred.template cast<double>() * (sign / config_.sdf_scale);
+}
+
+template <typename T>
+void SdfNetT<T>::adopt_rgb_parameters(const SdfNetT& other) {
+  SdfNetConfig as_rgb = config_;
+  as_rgb.input_channels = 3;
+  require(config_.input_channels == 4 && other.config_.to_json() == as_rgb.to_json(),
+          "SDF network: adopt_rgb_parameters needs an RGB model of the same architecture as this RGB + mask one");
+  // Layer 0 is the first convolution: weights Cout x (Cin * 3 * 3), input channel slowest, then Cout biases.
+  const auto& conv = static_cast<const Conv2d<T>&>(*store_.layers().at(0));
+  const int out_c = conv.settings().out_channels, k2 = conv.settings().kernel * conv.settings().kernel;
+  const T* src = other.store_.values.data();
+  T* dst = store_.values.data();
+  for (int o = 0; o < out_c; ++o) {
+    std::copy(src + o * 3 * k2, src + (o + 1) * 3 * k2, dst + o * 4 * k2);
+    std::fill(dst + o * 4 * k2 + 3 * k2, dst + (o + 1) * 4 * k2, T(0));
+  }
+  std::copy(src + out_c * 3 * k2, src + out_c * 3 * k2 + out_c, dst + out_c * 4 * k2);
+  const size_t rest_src = other.store_.offset(1), rest_dst = store_.offset(1);
+  require(other.store_.size() - rest_src == store_.size() - rest_dst, "SDF network: parameter layouts differ");
+  std::copy(src + rest_src, src + other.store_.size(), dst + rest_dst);
 }
 
 template class SdfNetT<float>;

@@ -44,7 +44,10 @@ SdfVariant sdf_variant_from_string(const std::string& s);
 
 struct SdfNetConfig {
   SdfVariant variant = SdfVariant::kTwoStream;
-  int image_size = 137;                              ///< input is 3 x image_size x image_size
+  int image_size = 137;                              ///< input is C x image_size x image_size
+  /// C: 3 (RGB) or 4 (RGB + a missing-data mask: 1 where the pixel is unknown, e.g. occluded; the RGB of such a
+  /// pixel is the white background). Models without the field are RGB.
+  int input_channels = 3;
   std::vector<int> encoder_channels{16, 32, 64, 96, 128};  ///< one stride-2 3x3 conv stage each (+ReLU)
   int extra_convs = 1;          ///< stride-1 3x3 convs added to every stage after the first
   /// Stride of the first stage: 2 (every stage halves the map), or 1: the first map has the image's resolution,
@@ -100,7 +103,7 @@ class SdfNetT {
     struct Data;
     std::unique_ptr<Data> d;
   };
-  /// Forward on B images (B x 3 x S x S, values in [0,1]), B cameras and B x N x 3 points; writes pred (B x N).
+  /// Forward on B images (B x C x S x S, C = input_channels, values in [0,1]), B cameras and B x N x 3 points; writes pred (B x N).
   void forward(const TensorT<T>& images, const std::vector<Camera>& cameras, const TensorT<T>& points,
                Workspace& ws, TensorT<T>& pred) const;
   /// Backward from dL/dpred (B x N) of the last forward with `ws`; ADDS parameter gradients.
@@ -118,7 +121,7 @@ class SdfNetT {
     std::vector<std::vector<TensorT<T>>> proj;
     Camera camera;
   };
-  /// Encode one image (3 x S x S channels-first, values in [0,1]) seen from `camera`.
+  /// Encode one image (C x S x S channels-first, C = input_channels, values in [0,1]) seen from `camera`.
   ShapeCode encode(const T* image, const Camera& camera) const;
   /// Network output (pred) for points (object frame). Thread-safe; TBB-parallel over fixed blocks of
   /// min(chunk, 256) points (so the values do not depend on the thread count), each block run through the
@@ -136,6 +139,11 @@ class SdfNetT {
   /// backward counts weight and input gradients, except the input gradients of the image and of the points, which
   /// are never computed. Per-shape work (encoder, global feature, local projections) is counted once per item.
   [[nodiscard]] double train_step_flops(int batch, int points) const;
+
+  /// Copy the parameters of `other`, whose configuration equals this one's except that it reads RGB (3 channels)
+  /// and this network RGB + mask (4): the first convolution's mask weights are set to 0, so this network computes
+  /// exactly what `other` does on any input whose mask is 0. InvalidInput for any other configuration pair.
+  void adopt_rgb_parameters(const SdfNetT& other);
 
   /// Channel count of the local feature a stream sees (0 for global-only).
   [[nodiscard]] int local_channels(int stream) const;

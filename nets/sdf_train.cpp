@@ -5,6 +5,7 @@
 #include "core/random.h"
 #include "nets/checkpoint.h"
 #include "nets/comm.h"
+#include "nets/critic.h"
 #include "nets/denormals.h"
 #include "nets/loss.h"
 #include "nets/optim.h"
@@ -28,6 +29,8 @@ namespace sdfkit {
 namespace {
 
 constexpr int kLogEvery = 25;  // CSV rows: mean training loss over this many steps
+/// --adversarial: silhouette rays whose prediction is within this many temperatures of 0 are differentiated.
+constexpr double kActiveTemperatures = 6.0;
 
 /// Loss of the variant (value; gradient into grad when not null).
 double variant_loss(const SdfNetConfig& c, const Tensor& pred, const Tensor& sdf, Tensor* grad) {
@@ -68,6 +71,25 @@ std::vector<std::vector<double>> read_csv_numbers(const std::string& path, std::
     rows.push_back(std::move(r));
   }
   return rows;
+}
+
+}  // namespace
+
+Json SdfAdversarialSettings::to_json() const {
+  return {{"weight", weight},
+          {"critic", critic.to_json()},
+          {"render", {{"size", render.size}, {"radius", render.radius}, {"samples", render.samples},
+                      {"refine", render.refine}}},
+          {"temperature", temperature}};
+}
+
+namespace {
+
+/// One channel (S * S, row by row) resized to R x R by area averaging (network_image of a grey image).
+Eigen::VectorXf resize_channel(const float* values, int S, int R) {
+  Image grey(S, S, 1);
+  std::copy(values, values + static_cast<size_t>(S) * S, grey.data.begin());
+  return network_image(grey, R).head(static_cast<Eigen::Index>(R) * R);
 }
 
 }  // namespace
@@ -120,7 +142,7 @@ SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, i
     PointsF pts;
     Eigen::VectorXf sdf;
     draw_samples(data.samples(s), points, Rng::mix(seed + 77 * static_cast<uint64_t>(s)), pts, sdf);
-    const Eigen::VectorXf img = data.input(s, 0);
+    const Eigen::VectorXf img = network_input(data.input(s, 0), nullptr, c.input_channels);
     const auto code = net.encode(img.data(), data.camera(s, 0));
     Eigen::VectorXf pred;
     net.predict(code, pts, pred);
@@ -191,15 +213,28 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   require(st.camera_jitter_deg >= 0 && st.camera_jitter_deg <= 180, "train sdf: --camera-jitter must be in [0, 180]");
   require(st.zoom.camera == ZoomAugmentSettings::CameraFollow::kFocal,
           "train sdf: the zoom augmentation must move the intrinsics (the network projects with the camera)");
+  const SdfAdversarialSettings& adv = st.adversarial;
+  if (adv.enabled()) {
+    require(Comm::world().size() == 1, "train sdf: --adversarial runs in one process (no MPI ranks)");
+    require(adv.render.size == adv.critic.size, "train sdf: the render and the critic need the same size");
+    require(adv.temperature > 0, "train sdf: the silhouette temperature must be positive");
+    (void)adv.critic.pools();  // validates the size
+  }
   SdfNet net(st.net);
   net.allocate_grads(true);
   net.init(st.seed);
   if (!st.init.empty()) {
     const auto start = load_sdf_model(st.init);
-    if (start->config().to_json() != st.net.to_json())
+    SdfNetConfig as_rgb = st.net;
+    as_rgb.input_channels = 3;
+    if (st.net.input_channels == 4 && start->config().to_json() == as_rgb.to_json()) {
+      net.adopt_rgb_parameters(*start);
+    } else if (start->config().to_json() != st.net.to_json()) {
       throw InvalidInput(st.init + ": --init model has another configuration than the network being trained (" +
                          start->config().to_json().dump() + " vs " + st.net.to_json().dump() + ")");
-    std::copy(start->params().values.begin(), start->params().values.end(), net.params().values.begin());
+    } else {
+      std::copy(start->params().values.begin(), start->params().values.end(), net.params().values.begin());
+    }
   }
   OptimizerSettings os;
   os.beta1 = 0.5;
@@ -218,8 +253,12 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   // Temporary files of a run killed while writing (core/files.h): nobody else will remove them.
   if (Comm::world().is_root())
     for (const std::string& path : {st.out, res.csv, res.plot}) remove_stale_temporaries(path);
-  const std::vector<std::string> header = {"step", "train_loss", "lr", "seconds", "val_loss", "val_sign_accuracy",
-                                           "val_sample_iou"};
+  std::vector<std::string> header = {"step", "train_loss", "lr", "seconds", "val_loss", "val_sign_accuracy",
+                                     "val_sample_iou"};
+  // With the critic: the generator's adversarial loss and the critic's loss (mean over the logged steps).
+  if (adv.enabled()) header.insert(header.end(), {"adv_generator", "adv_critic"});
+  std::unique_ptr<PatchCritic> critic;
+  if (adv.enabled()) critic = std::make_unique<PatchCritic>(adv.critic, st.seed ^ 0xc717c5ULL);
   std::vector<std::vector<double>> rows;
   long step = 0;
   double seconds_before = 0;  // training time of earlier (resumed) runs
@@ -230,9 +269,18 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
                            {"weight_decay", st.weight_decay}, {"grad_clip", st.grad_clip},
                            {"seed", st.seed},          {"max_shapes", st.max_shapes},   {"steps", st.steps},
                            {"train_shapes", train.size()}, {"init", st.init},
-                           {"camera_jitter_deg", st.camera_jitter_deg}, {"zoom", st.zoom.to_json()}};
+                           {"camera_jitter_deg", st.camera_jitter_deg}, {"zoom", st.zoom.to_json()},
+                           {"occlusion", st.occlusion.to_json()},
+                           {"adversarial", adv.to_json()}};
   if (st.resume && fs::exists(st.out)) {
-    const Checkpoint ck = load_checkpoint(st.out);
+    Checkpoint ck = load_checkpoint(st.out);
+    // A configuration written before a field existed reads as that field's default (SdfNetConfig::from_json).
+    if (ck.header.contains("config")) {
+      try {
+        ck.header["config"] = SdfNetConfig::from_json(ck.header["config"]).to_json();
+      } catch (const IoError&) {  // left as it is: require_header_match names the difference
+      }
+    }
     require_header_match(ck, "config", st.net.to_json(), st.out);
     const auto& p = ck.block("params", static_cast<long>(net.n_params()));
     std::copy(p.begin(), p.end(), net.params().values.begin());
@@ -243,9 +291,13 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     if (tr.value("seed", st.seed) != st.seed)
       throw InvalidInput(st.out + ": checkpoint was trained with seed " + std::to_string(tr.value("seed", 0ULL)) +
                          "; resume with the same --seed");
+    if (critic && ck.header.contains("critic_settings")) get_patch_critic(ck, *critic, "critic_", st.out);
     std::vector<std::string> h;
     for (auto& r : read_csv_numbers(res.csv, &h))
-      if (!r.empty() && r[0] <= static_cast<double>(step)) rows.push_back(std::move(r));
+      if (!r.empty() && r[0] <= static_cast<double>(step)) {
+        r.resize(header.size(), std::nan(""));  // rows of a run without the critic's columns
+        rows.push_back(std::move(r));
+      }
   }
   res.start_step = step;
 
@@ -269,6 +321,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     ck.header["training"] = tr;
     ck.set_block("params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
     ck.put_optimizer(opt);
+    if (critic) put_patch_critic(ck, *critic, "critic_");
     // The curves first, the checkpoint last: a run killed in between resumes from the previous checkpoint and
     // drops the curve rows past it, so curve and checkpoint always agree.
     write_text_atomic(res.csv, format_csv(header, rows));
@@ -289,6 +342,11 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     SdfNet::Workspace ws;
     Tensor image, points, sdf, pred, dpred;
     double loss = 0;
+    // --adversarial: the silhouette rays, the rendered coverage and its derivative by the network's output.
+    FieldSilhouetteRays rays;
+    std::vector<int> active;  // rays in the training forward (after the item's N samples, in this order)
+    Eigen::VectorXf alpha, dalpha;
+    Tensor pred_samples, dpred_samples;
   };
   std::vector<Item> items(static_cast<size_t>(local));
   std::vector<float*> item_grads;  // zero between steps: ordered_sum clears them
@@ -299,42 +357,138 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   }
   const float inv_batch = 1.0f / static_cast<float>(st.batch);
   // The next step's batch is read while this one trains.
-  auto load = [&sampler, &st, i0 = i0, i1 = i1](long at) {
-    SdfBatch batch = sampler.batch(at, i0, i1);
-    zoom_images(batch.images, batch.cameras, st.zoom, st.seed, static_cast<uint64_t>(at) * st.batch + i0);
-    return batch;
+  struct Loaded {
+    SdfBatch batch;
+    MatrixXfR silhouettes;  // --adversarial: the object's pixels (is_ink) before occlusion, B x (S * S)
   };
-  std::future<SdfBatch> next;
+  auto load = [&sampler, &st, i0 = i0, i1 = i1](long at) {
+    Loaded l;
+    SdfBatch& batch = l.batch;
+    batch = sampler.batch(at, i0, i1);
+    const uint64_t stream = static_cast<uint64_t>(at) * st.batch + i0;
+    zoom_images(batch.images, batch.cameras, st.zoom, st.seed, stream);
+    if (st.adversarial.enabled()) {
+      const Eigen::Index n = batch.images.cols() / 3;
+      l.silhouettes.resize(batch.images.rows(), n);
+      for (Eigen::Index b = 0; b < batch.images.rows(); ++b)
+        for (Eigen::Index i = 0; i < n; ++i)
+          l.silhouettes(b, i) = is_ink(batch.images(b, i), batch.images(b, n + i), batch.images(b, 2 * n + i)) ? 1.f : 0.f;
+    }
+    occlude_images(batch.images, batch.masks, st.occlusion, st.seed, stream);
+    return l;
+  };
+  std::future<Loaded> next;
   if (step < st.steps) next = std::async(std::launch::async, load, step);
 
-  double interval_loss = 0;
+  double interval_loss = 0, interval_adv_g = 0, interval_adv_d = 0;
   int interval_n = 0;
-  const int S = kNetImageSize;
+  const int S = kNetImageSize, C = st.net.input_channels;
   while (step < st.steps) {
-    SdfBatch b = next.get();
+    Loaded loaded = next.get();
+    SdfBatch& b = loaded.batch;
     if (step + 1 < st.steps) next = std::async(std::launch::async, load, step + 1);
     if (st.camera_jitter_deg > 0) jitter_cameras(b.cameras, st.camera_jitter_deg, st.seed, step, i0);
     const int64_t N = b.points_per_item;
+    const int R = adv.render.size;
+    const int64_t RR = adv.enabled() ? static_cast<int64_t>(R) * R : 0;
     tbb::parallel_for(0, local, [&](int k) {
       flush_denormals_on_this_thread();
       Item& it = items[static_cast<size_t>(k)];
-      it.image.resize({1, 3, S, S});
+      it.image.resize({1, C, S, S});
       std::copy(b.images.row(k).data(), b.images.row(k).data() + 3 * S * S, it.image.ptr());
-      it.points.resize({1, N, 3});
+      if (C == 4) std::copy(b.masks.row(k).data(), b.masks.row(k).data() + S * S, it.image.ptr() + 3 * S * S);
+      const Camera& cam = b.cameras[static_cast<size_t>(k)];
+      if (adv.enabled()) {
+        // The silhouette rays' points of smallest predicted value (inference, not differentiated).
+        const auto code = net.encode(it.image.ptr(), cam);
+        it.rays = find_silhouette_points(cam, adv.render, [&](const PointsF& p, Eigen::VectorXf& v) {
+          net.predict(code, p, v);
+        });
+      }
+      // Only rays whose coverage can still move take part in the training forward: where |prediction| exceeds
+      // kActiveTemperatures temperatures, d alpha / d prediction is below 0.25% of its peak and alpha stays the
+      // search's value (a constant of the render).
+      it.active.clear();
+      if (RR)
+        for (int64_t i = 0; i < RR; ++i)
+          if (it.rays.hit[static_cast<size_t>(i)] && std::abs(it.rays.value[i]) < kActiveTemperatures * adv.temperature)
+            it.active.push_back(static_cast<int>(i));
+      const auto A = static_cast<int64_t>(it.active.size());
+      it.points.resize({1, N + A, 3});
       std::copy(b.points.data() + 3 * k * N, b.points.data() + 3 * (k + 1) * N, it.points.ptr());
+      for (int64_t a = 0; a < A; ++a)
+        for (int d = 0; d < 3; ++d) it.points[3 * (N + a) + d] = it.rays.points(it.active[static_cast<size_t>(a)], d);
       it.sdf.resize({1, N});
       std::copy(b.sdf.data() + k * N, b.sdf.data() + (k + 1) * N, it.sdf.ptr());
-      it.net->forward(it.image, {b.cameras[static_cast<size_t>(k)]}, it.points, it.ws, it.pred);
+      it.net->forward(it.image, {cam}, it.points, it.ws, it.pred);
       // The step's loss is the mean of the item losses: each item's gradient is weighted by 1 / batch.
-      it.loss = variant_loss(st.net, it.pred, it.sdf, &it.dpred);
-      for (float& g : it.dpred.data) g *= inv_batch;
-      it.net->backward(it.ws, it.dpred);
+      if (!RR) {
+        it.loss = variant_loss(st.net, it.pred, it.sdf, &it.dpred);
+        for (float& g : it.dpred.data) g *= inv_batch;
+        it.net->backward(it.ws, it.dpred);
+        return;
+      }
+      it.pred_samples.resize({1, N});
+      std::copy(it.pred.ptr(), it.pred.ptr() + N, it.pred_samples.ptr());
+      it.loss = variant_loss(st.net, it.pred_samples, it.sdf, &it.dpred_samples);
+      Eigen::VectorXf value = it.rays.value;
+      for (int64_t a = 0; a < A; ++a) value[it.active[static_cast<size_t>(a)]] = it.pred[N + a];
+      it.alpha = soft_coverage(it.rays, value, adv.temperature, &it.dalpha);
     });
+    double adv_g = 0, adv_d = 0;
+    if (adv.enabled()) {
+      // The critic's inputs: the image as the network saw it (RGB, R x R) stacked with the render (fake) or the
+      // unoccluded object's silhouette (real).
+      Tensor fake({local, 4, R, R}), real({local, 4, R, R}), logits, dlogits, dfake;
+      for (int k = 0; k < local; ++k) {
+        const Eigen::VectorXf rgb = network_image(
+            [&] {
+              Image im(S, S, 3);
+              for (int y = 0; y < S; ++y)
+                for (int x = 0; x < S; ++x)
+                  for (int c = 0; c < 3; ++c) im.at(x, y, c) = b.images(k, (c * S + y) * S + x);
+              return im;
+            }(),
+            R);
+        const Eigen::VectorXf sil = resize_channel(loaded.silhouettes.row(k).data(), S, R);
+        std::copy(rgb.data(), rgb.data() + 3 * RR, fake.item(k));
+        std::copy(rgb.data(), rgb.data() + 3 * RR, real.item(k));
+        std::copy(items[static_cast<size_t>(k)].alpha.data(), items[static_cast<size_t>(k)].alpha.data() + RR,
+                  fake.item(k) + 3 * RR);
+        std::copy(sil.data(), sil.data() + RR, real.item(k) + 3 * RR);
+      }
+      // Generator: d (weight * BCE(critic(fake), 1)) / d render; then the critic's own step.
+      critic->forward(fake, logits);
+      adv_g = critic_loss(logits, 1.0f, &dlogits);
+      critic->backward(fake, logits, dlogits, &dfake);
+      critic->zero_grad();
+      adv_d = critic_loss(logits, 0.0f, &dlogits);
+      critic->backward(fake, logits, dlogits, nullptr);
+      critic->forward(real, logits);
+      adv_d += critic_loss(logits, 1.0f, &dlogits);
+      critic->backward(real, logits, dlogits, nullptr);
+      critic->step();
+      tbb::parallel_for(0, local, [&](int k) {
+        flush_denormals_on_this_thread();
+        Item& it = items[static_cast<size_t>(k)];
+        const auto A = static_cast<int64_t>(it.active.size());
+        it.dpred.resize({1, N + A});
+        for (int64_t i = 0; i < N; ++i) it.dpred[i] = it.dpred_samples[i] * inv_batch;
+        const float* dr = dfake.item(k) + 3 * RR;
+        for (int64_t a = 0; a < A; ++a) {
+          const int i = it.active[static_cast<size_t>(a)];
+          it.dpred[N + a] = static_cast<float>(adv.weight) * dr[i] * it.dalpha[i];
+        }
+        it.net->backward(it.ws, it.dpred);
+      });
+    }
     std::vector<double> mine;
     for (const Item& it : items) mine.push_back(it.loss);
     double loss = 0;
     for (const double l : comm.gather(mine)) loss += l;
     loss /= st.batch;
+    interval_adv_g += adv_g;
+    interval_adv_d += adv_d;
     if (!std::isfinite(loss)) throw Error("train sdf: loss became non-finite at step " + std::to_string(step));
     comm.ordered_sum(item_grads, net.params().grads.data(), net.n_params(), true);
     if (st.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.n_params(), st.grad_clip);
@@ -351,8 +505,9 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     if (step % kLogEvery == 0 || do_val) {
       std::vector<double> row = {static_cast<double>(step), interval_loss / interval_n, lr, ev.seconds,
                                  std::nan(""), std::nan(""), std::nan("")};
+      if (adv.enabled()) row.insert(row.end(), {interval_adv_g / interval_n, interval_adv_d / interval_n});
       res.final_loss = interval_loss / interval_n;
-      interval_loss = 0;
+      interval_loss = interval_adv_g = interval_adv_d = 0;
       interval_n = 0;
       if (do_val && comm.is_root()) {
         res.val = validate_sdf(net, *val, st.val_shapes, st.val_points, st.seed + 1);

@@ -4,7 +4,9 @@
 #pragma once
 
 #include "core/json.h"
+#include "camera/field_silhouette.h"
 #include "nets/dataset.h"
+#include "nets/patch_critic.h"
 #include "nets/sdf_net.h"
 #include "nets/train_event.h"
 
@@ -13,6 +15,25 @@
 #include <string>
 
 namespace sdfkit {
+
+/// Adversarial fine-tuning (the occlusion paper's conditional patch critic, `train sdf --adversarial W`). Each step,
+/// every item's predicted field is rendered through the item's camera as a soft silhouette (camera/field_silhouette.h:
+/// the network evaluated at each pixel ray's point of smallest predicted value, alpha = sigmoid(-pred / temperature));
+/// the critic (nets/patch_critic.h) sees the input image (as the network saw it, occlusion included, resized to the
+/// render's size) stacked with either that render (fake) or the object's silhouette in the unoccluded image (real:
+/// its non-white pixels). The SDF network's loss becomes  mean item loss + weight * BCE(critic(fake), real), whose
+/// gradient reaches the network through the rays' points; the critic is updated once per step on BCE(real, 1) +
+/// BCE(fake, 0). The critic's state is saved in the training checkpoint; a run resumed from a checkpoint without one
+/// (a model trained without the critic) starts a fresh critic.
+struct SdfAdversarialSettings {
+  double weight = 0;  ///< weight of the generator's adversarial loss (0 = off)
+  PatchCriticSettings critic;
+  FieldSilhouetteSettings render;  ///< render.size must equal critic.size
+  double temperature = 0.15;       ///< in network output units (10 x sdf): 0.015 in SDF units
+
+  [[nodiscard]] bool enabled() const { return weight > 0; }
+  [[nodiscard]] Json to_json() const;
+};
 
 struct SdfTrainSettings {
   std::string data;                 ///< prepared dataset folder
@@ -34,7 +55,8 @@ struct SdfTrainSettings {
   int max_shapes = 0;               ///< use only the first N training shapes (0 = all)
   uint64_t seed = 1;
   bool resume = false;              ///< continue from `out` if it exists
-  /// Start from this model's weights (same configuration) instead of the seeded initialisation; fresh optimiser.
+  /// Start from this model's weights (same configuration, or the same one reading RGB only when the network reads
+  /// RGB + mask: SdfNet::adopt_rgb_parameters) instead of the seeded initialisation; fresh optimiser.
   std::string init;
   /// Camera jitter (degrees, 0 = off): each training item's camera is turned about the object's vertical axis by
   /// a Gaussian angle of this standard deviation before the local features are sampled (the SDF targets stay), so
@@ -48,6 +70,10 @@ struct SdfTrainSettings {
     z.camera = ZoomAugmentSettings::CameraFollow::kFocal;
     return z;
   }();
+  /// Occlusion augmentation (nets/dataset.h, off by default), applied after the zoom. With an RGB + mask network
+  /// (net.input_channels = 4) the network also reads the removed pixels' mask; an RGB network sees white there.
+  OcclusionAugmentSettings occlusion;
+  SdfAdversarialSettings adversarial;  ///< off by default; single-process training only
   double time_limit_seconds = 0;    ///< stop (and save) once this much time has passed (0 = no limit)
 };
 

@@ -429,3 +429,74 @@ TEST_CASE("zoom_images, focal mode: the zoomed image is the render through the z
   z.camera = ZoomAugmentSettings::CameraFollow::kFocal;
   CHECK(z.to_json().at("camera") == "focal");
 }
+
+TEST_CASE("occlusion augmentation: half removes one side of the object's box, white and masked, seeded") {
+  const int S = 40;
+  // A grey object spanning columns 10..29 and rows 12..27 on white.
+  MatrixXfR images = MatrixXfR::Ones(4, 3 * S * S);
+  for (int b = 0; b < 4; ++b)
+    for (int c = 0; c < 3; ++c)
+      for (int y = 12; y < 28; ++y)
+        for (int x = 10; x < 30; ++x) images(b, (c * S + y) * S + x) = 0.3f + 0.1f * c;
+  const MatrixXfR clean = images;
+  OcclusionAugmentSettings st;
+  st.kind = OcclusionAugmentSettings::Kind::kHalf;
+  st.prob = 1.0;
+  MatrixXfR masks, again = images, masks2;
+  occlude_images(images, masks, st, 3, 10);
+  occlude_images(again, masks2, st, 3, 10);
+  CHECK(images == again);  // same (seed, stream): same bytes
+  CHECK(masks == masks2);
+  REQUIRE(masks.rows() == 4);
+  REQUIRE(masks.cols() == S * S);
+  int lefts = 0;
+  for (int b = 0; b < 4; ++b) {
+    // Split at the box's centre column (20): one side is entirely removed (all rows), the other kept.
+    const bool left = masks(b, 15 * S + 12) > 0;
+    lefts += left;
+    for (int y = 0; y < S; ++y)
+      for (int x = 0; x < S; ++x) {
+        const bool removed = masks(b, y * S + x) > 0;
+        CHECK(removed == (left ? x < 20 : x >= 20));
+        for (int c = 0; c < 3; ++c)
+          CHECK(images(b, (c * S + y) * S + x) == (removed ? kNetBackground : clean(b, (c * S + y) * S + x)));
+      }
+  }
+  CHECK(lefts > 0);  // both sides occur over 4 draws with this seed
+  CHECK(lefts < 4);
+  // Another stream draws other choices; probability 0 and kind none leave the images whole with empty masks.
+  MatrixXfR other = clean;
+  occlude_images(other, masks2, st, 3, 11);
+  CHECK(masks2 != masks);
+  st.prob = 0;
+  other = clean;
+  occlude_images(other, masks2, st, 3, 10);
+  CHECK(other == clean);
+  CHECK(masks2.isZero());
+  st.prob = 1.5;
+  CHECK_THROWS_AS(occlude_images(other, masks2, st, 3, 10), InvalidInput);
+  // rect: removed pixels form one rectangle overlapping the object.
+  st.prob = 1;
+  st.kind = OcclusionAugmentSettings::Kind::kRect;
+  other = clean;
+  occlude_images(other, masks2, st, 5, 0);
+  for (int b = 0; b < 4; ++b) {
+    const double area = masks2.row(b).sum();
+    CHECK(area >= 0.2 * 0.2 * S * S);
+    CHECK(area <= 0.5 * 0.5 * S * S + 1);
+  }
+  CHECK(parse_occlusion_kind("mixed") == OcclusionAugmentSettings::Kind::kMixed);
+  CHECK_THROWS_AS(parse_occlusion_kind("quarter"), InvalidInput);
+}
+
+TEST_CASE("network_input appends the missing-data mask for an RGB + mask network, drops it for an RGB one") {
+  const Eigen::VectorXf rgb = Eigen::VectorXf::LinSpaced(3 * 16, 0.f, 1.f);
+  const Eigen::VectorXf mask = Eigen::VectorXf::Constant(16, 1.f);
+  CHECK(network_input(rgb, &mask, 3) == rgb);
+  const Eigen::VectorXf four = network_input(rgb, &mask, 4);
+  REQUIRE(four.size() == 4 * 16);
+  CHECK(four.head(48) == rgb);
+  CHECK(four.tail(16) == mask);
+  CHECK(network_input(rgb, nullptr, 4).tail(16).isZero());
+  CHECK_THROWS_AS(network_input(rgb, &mask, 5), InvalidInput);
+}

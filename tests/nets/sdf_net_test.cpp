@@ -35,12 +35,15 @@ TensorT<T> random_tensor(const Shape& s, Rng& rng, double lo, double hi) {
   return t;
 }
 
-/// Every variant with the default stride-2 first stage, and the two-stream network with a full-resolution one.
+/// Every variant with the default stride-2 first stage, the two-stream network with a full-resolution one, and the
+/// two-stream network reading RGB + mask.
 std::vector<SdfNetConfig> tiny_configs() {
   std::vector<SdfNetConfig> all;
   for (SdfVariant v : {SdfVariant::kTwoStream, SdfVariant::kOneStream, SdfVariant::kGlobalOnly, SdfVariant::kBinary})
     all.push_back(tiny_config(v));
   all.push_back(tiny_config(SdfVariant::kTwoStream, 1));
+  all.push_back(tiny_config(SdfVariant::kTwoStream));
+  all.back().input_channels = 4;  // RGB + missing-data mask
   return all;
 }
 
@@ -56,7 +59,7 @@ TEST_CASE("SDF network: finite-difference gradient check of every parameter clas
     // 30 points: the 9 x 9 first map (17 x 17 with a stride-1 first stage) is sampled first, the smaller maps are
     // projected first (SdfNet's training takes the cheaper order per map): both orders are checked.
     const int B = 2, N = 30, S = 17;
-    const TensorT<double> images = random_tensor<double>({B, 3, S, S}, rng, 0.0, 1.0);
+    const TensorT<double> images = random_tensor<double>({B, config.input_channels, S, S}, rng, 0.0, 1.0);
     const TensorT<double> points = random_tensor<double>({B, N, 3}, rng, -0.6, 0.6);
     const std::vector<Camera> cams = {look_at(30, 20, 2.0, S, S), look_at(-100, 35, 2.2, S, S)};
     const TensorT<double> r = random_tensor<double>({B, N}, rng, -1.0, 1.0);  // L = sum(r * pred)
@@ -114,7 +117,7 @@ TEST_CASE("SDF network: training forward and the per-shape inference path agree,
   net.init(5);
   Rng rng(2);
   const int N = 40, S = 17;
-  const TensorT<double> image = random_tensor<double>({1, 3, S, S}, rng, 0.0, 1.0);
+  const TensorT<double> image = random_tensor<double>({1, config.input_channels, S, S}, rng, 0.0, 1.0);
   const TensorT<double> points = random_tensor<double>({1, N, 3}, rng, -0.7, 0.7);
   const Camera cam = look_at(70, 10, 2.0, S, S);
   SdfNetT<double>::Workspace ws;
@@ -137,6 +140,55 @@ TEST_CASE("SDF network: training forward and the per-shape inference path agree,
     CHECK(whole[i] == doctest::Approx(inf[i]).epsilon(1e-12).scale(1.0));
   }
   }
+}
+
+TEST_CASE("SDF network: an RGB + mask network adopting an RGB model computes the same field, and reads the mask") {
+  const SdfNetConfig rgb_config = tiny_config(SdfVariant::kTwoStream, 1);
+  SdfNetConfig masked_config = rgb_config;
+  masked_config.input_channels = 4;
+  SdfNetT<double> rgb(rgb_config), masked(masked_config);
+  rgb.init(4);
+  masked.init(9);
+  masked.adopt_rgb_parameters(rgb);
+  Rng rng(8);
+  const int N = 25, S = 17;
+  TensorT<double> image4 = random_tensor<double>({1, 4, S, S}, rng, 0.0, 1.0);
+  for (int i = 0; i < S * S; ++i) image4[3 * S * S + i] = 0.0;  // nothing missing
+  const TensorT<double> points = random_tensor<double>({1, N, 3}, rng, -0.6, 0.6);
+  const Camera cam = look_at(40, 25, 2.1, S, S);
+  TensorT<double> image3({1, 3, S, S});
+  std::copy(image4.ptr(), image4.ptr() + 3 * S * S, image3.ptr());
+  SdfNetT<double>::Workspace w3, w4;
+  TensorT<double> p3, p4;
+  rgb.forward(image3, {cam}, points, w3, p3);
+  masked.forward(image4, {cam}, points, w4, p4);
+  for (int i = 0; i < N; ++i) CHECK(p4[i] == doctest::Approx(p3[i]).epsilon(1e-12).scale(1.0));
+  // The adopted network's gradient reaches the mask weights, and training them makes the mask matter.
+  masked.allocate_grads(true);
+  masked.params().zero_grad();
+  TensorT<double> ones({1, N}, 1.0);
+  masked.forward(image4, {cam}, points, w4, p4);
+  masked.backward(w4, ones);
+  const int out_c = rgb_config.encoder_channels[0];
+  double mask_grad = 0;
+  for (int o = 0; o < out_c; ++o)
+    for (int k = 0; k < 9; ++k) {
+      CHECK(masked.params().values[static_cast<size_t>(o * 36 + 27 + k)] == 0.0);
+      mask_grad += std::abs(masked.params().grads[static_cast<size_t>(o * 36 + 27 + k)]);
+    }
+  CHECK(mask_grad > 0);
+  for (int o = 0; o < out_c; ++o) masked.params().values[static_cast<size_t>(o * 36 + 27)] = 0.5;
+  for (int i = 0; i < S * S; ++i) image4[3 * S * S + i] = i % 2;
+  masked.forward(image4, {cam}, points, w4, p4);
+  double moved = 0;
+  for (int i = 0; i < N; ++i) moved += std::abs(p4[i] - p3[i]);
+  CHECK(moved > 1e-6);
+  // Only the RGB twin of the same architecture can be adopted.
+  SdfNetConfig other = rgb_config;
+  other.global_features = 5;
+  SdfNetT<double> wrong(other);
+  CHECK_THROWS_AS(masked.adopt_rgb_parameters(wrong), InvalidInput);
+  CHECK_THROWS_AS(rgb.adopt_rgb_parameters(rgb), InvalidInput);
 }
 
 TEST_CASE("SDF network: the local-feature path is used and samples where the point projects") {
@@ -235,5 +287,12 @@ TEST_CASE("SDF network configuration round-trips through JSON and rejects bad va
   CHECK_THROWS_AS(SdfNetT<float>{c}, InvalidInput);
   c.first_stride = 2;
   c.one_stream_maps = 7;
+  CHECK_THROWS_AS(SdfNetT<float>{c}, InvalidInput);
+  // Models written before the mask channel existed read RGB; only 3 or 4 input channels exist.
+  bad = tiny_config(SdfVariant::kTwoStream).to_json();
+  bad.erase("input_channels");
+  CHECK(SdfNetConfig::from_json(bad).input_channels == 3);
+  c = tiny_config(SdfVariant::kTwoStream);
+  c.input_channels = 2;
   CHECK_THROWS_AS(SdfNetT<float>{c}, InvalidInput);
 }

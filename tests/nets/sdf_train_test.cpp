@@ -346,6 +346,74 @@ TEST_CASE("zoomed training: recorded in the model, changes the training, resumes
   fs::remove_all(root);
 }
 
+TEST_CASE("occluded training with a mask channel: recorded, starts from an RGB model, resumes bit for bit") {
+  const fs::path root = make_torus_dataset("sdf_train_occlusion");
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
+  st.steps = 6;
+  st.out = (root / "rgb.ckpt").string();
+  train_sdf(st);
+  st.net.input_channels = 4;
+  st.init = st.out;
+  st.occlusion.kind = OcclusionAugmentSettings::Kind::kMixed;
+  st.occlusion.prob = 1.0;
+  straight_and_split(st, root, "o");
+  CHECK(params(root, "o_straight.ckpt") == params(root, "o_split.ckpt"));
+  const Checkpoint ck = load_checkpoint((root / "o_straight.ckpt").string());
+  CHECK(ck.header.at("config").at("input_channels") == 4);
+  CHECK(ck.header.at("training").at("occlusion").at("kind") == "mixed");
+  // The occluded images changed the training: the same run without occlusion ends elsewhere.
+  st.occlusion.prob = 0;
+  st.out = (root / "o_plain.ckpt").string();
+  st.resume = false;
+  st.steps = 6;
+  train_sdf(st);
+  CHECK(params(root, "o_straight.ckpt") != params(root, "o_plain.ckpt"));
+  // An RGB model of another architecture cannot start a mask-channel one.
+  st.net.global_features = 8;
+  CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  fs::remove_all(root);
+}
+
+TEST_CASE("adversarial fine-tuning: the critic trains, its state resumes bit for bit, its gradient moves the net") {
+  const fs::path root = make_torus_dataset("sdf_train_adversarial");
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
+  st.steps = 3;
+  st.out = (root / "start.ckpt").string();
+  train_sdf(st);
+  st.init = st.out;
+  st.occlusion.kind = OcclusionAugmentSettings::Kind::kHalf;
+  st.occlusion.prob = 1.0;
+  st.adversarial.critic.size = st.adversarial.render.size = 14;
+  st.adversarial.critic.widths = {4, 4, 4, 4};
+  st.adversarial.render.samples = 6;
+  st.adversarial.weight = 0.5;
+  const SdfTrainResult r = straight_and_split(st, root, "a");
+  CHECK(r.steps == 6);
+  const Checkpoint a = load_checkpoint((root / "a_straight.ckpt").string());
+  const Checkpoint b = load_checkpoint((root / "a_split.ckpt").string());
+  CHECK(a.block("params") == b.block("params"));
+  CHECK(a.block("critic_params") == b.block("critic_params"));
+  CHECK(a.header.at("training").at("adversarial").at("weight") == 0.5);
+  // The curve carries the two adversarial losses, finite on every logged row.
+  std::ifstream csv(loss_curve_path((root / "a_straight.ckpt").string(), "csv"));
+  std::string header;
+  std::getline(csv, header);
+  CHECK(header.find("adv_generator,adv_critic") != std::string::npos);
+  // Weight 0 is plain training: the critic's gradient changed the network.
+  st.adversarial.weight = 0;
+  st.out = (root / "a_off.ckpt").string();
+  st.resume = false;
+  st.steps = 6;
+  train_sdf(st);
+  CHECK(params(root, "a_off.ckpt") != a.block("params"));
+  CHECK_FALSE(load_checkpoint(st.out).has_block("critic_params"));
+  // Render and critic must agree on the size.
+  st.adversarial.weight = 0.5;
+  st.adversarial.render.size = 28;
+  CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  fs::remove_all(root);
+}
+
 TEST_CASE("a checkpoint of every variant loads back to the same predictions, damaged files are refused") {
   const fs::path dir = test::scratch_dir("sdf_models");
   fs::create_directories(dir);
