@@ -2,9 +2,11 @@
 #include "apps/command.h"
 #include "camera/camera.h"
 #include "camera/image.h"
+#include "camera/occlusion.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
+#include "core/random.h"
 #include "core/mesh_io.h"
 #include "recon/recon.h"
 #include "recon/recon_json.h"
@@ -95,6 +97,8 @@ std::function<int()> setup_recon(CLI::App& app) {
     int jobs = 1;
     std::string refine_mode = "joint";
     bool refine = false;
+    std::string missing, occlude = "none";
+    uint64_t occlude_seed = 1;
   };
   auto o = std::make_shared<Opts>();
   o->model = default_model_path("sdf.ckpt");
@@ -133,6 +137,18 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "every image; sidecar = IMAGE's own <name>.json")
       ->capture_default_str();
   app.add_option("--mask", o->mask, "mask image (white = object) replacing the alpha of a single input image");
+  app.add_option("--missing", o->missing,
+                 "mask image of the pixels whose content is unknown, e.g. hidden by an occluder (white = missing; the "
+                 "image's size; single input image). They become white in the network image and, for a model trained "
+                 "with --mask-channel, 1 in its mask channel");
+  app.add_option("--occlude", o->occlude,
+                 "remove part of every input image, as `train sdf --occlusion` does, and treat it as missing data "
+                 "(--missing): none, left, right, half (left or right by a coin seeded by --occlude-seed and the "
+                 "image's file name), rect (a rectangle of 0.25-0.5 of the image side on the object). Needs images "
+                 "with an alpha channel (renders); the split is at the centre column of the alpha's box")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"none", "left", "right", "half", "rect"}));
+  app.add_option("--occlude-seed", o->occlude_seed, "seed of --occlude half and rect")->capture_default_str();
   app.add_option("--res", o->s.resolution, "effective grid resolution (points per axis: 65, 129, 257, ...)")
       ->capture_default_str();
   app.add_option("--safety", o->s.safety,
@@ -208,6 +224,8 @@ std::function<int()> setup_recon(CLI::App& app) {
       throw InvalidInput("--format applies to a folder or list of images; for one image the extension of -o chooses");
     if (!o->box.empty() && many) throw InvalidInput("--box applies to a single input image");
     if (!o->mask.empty() && many) throw InvalidInput("--mask applies to a single input image");
+    if (!o->missing.empty() && many) throw InvalidInput("--missing applies to a single input image");
+    if (!o->missing.empty() && o->occlude != "none") throw InvalidInput("give --missing or --occlude, not both");
     o->s.preview = !o->no_preview;
     o->s.refine_joint = o->refine_mode == "joint";
     o->s.framing.segment = parse_segmentation(o->segment);
@@ -221,8 +239,9 @@ std::function<int()> setup_recon(CLI::App& app) {
     if (!estimate && !sidecar) fixed_camera = read_camera(o->cam);
     const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
                                          estimate ? require_model_path(o->pose_model, "--pose-model") : std::string());
-    Image mask;
+    Image mask, missing;
     if (!o->mask.empty()) mask = read_image(o->mask);
+    if (!o->missing.empty()) missing = read_image(o->missing);
 
     // Output paths, fixed before any work: two inputs with one stem (a.png and a.jpg in a folder, or the same
     // name in two listed folders) would write the same mesh; the later input fails as an item instead.
@@ -249,7 +268,20 @@ std::function<int()> setup_recon(CLI::App& app) {
         const std::string& mesh_path = mesh_paths[i];
         const fs::path base = fs::path(mesh_path).parent_path() / fs::path(mesh_path).stem();
         const std::string preview_path = base.string() + ".preview.png", mask_path = base.string() + ".mask.png";
-        const Image img = read_image(in);
+        Image img = read_image(in);
+        // --occlude: the removed pixels (transparent in img) are the missing data.
+        Image occluded;
+        if (o->occlude != "none") {
+          if (img.channels != 2 && img.channels != 4)
+            throw InvalidInput(in + ": --occlude needs an image with an alpha channel (a render); give --missing for "
+                                    "other images");
+          const uint64_t h = fnv1a(stem.data(), stem.size()) ^ Rng::mix(o->occlude_seed);
+          OcclusionSettings os;
+          os.mode = o->occlude == "half" ? (Rng(h).uniform() < 0.5 ? OcclusionMode::kLeft : OcclusionMode::kRight)
+                                         : parse_occlusion_mode(o->occlude);
+          occluded = apply_occlusion(img, os, h);
+        }
+        const Image* missing_ptr = !occluded.empty() ? &occluded : (!o->missing.empty() ? &missing : nullptr);
         Camera cam;
         const Camera* cam_ptr = nullptr;
         if (sidecar) {
@@ -258,7 +290,7 @@ std::function<int()> setup_recon(CLI::App& app) {
         } else if (!estimate) {
           cam_ptr = &fixed_camera;
         }
-        const ReconResult r = rec->run(img, o->mask.empty() ? nullptr : &mask, cam_ptr, o->s, in);
+        const ReconResult r = rec->run(img, o->mask.empty() ? nullptr : &mask, cam_ptr, o->s, in, missing_ptr);
         for (const std::string& w : r.framing.warnings) bar.print_line(stderr, "sdfkit: warning: " + in + ": " + w);
         write_mesh(mesh_path, r.mesh);
         if (o->s.preview) {

@@ -432,6 +432,23 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
   return f;
 }
 
+Image frame_channel(const Image& channel, const FramedInput& framed) {
+  require(channel.channels == 1 && channel.width == framed.mask.width && channel.height == framed.mask.height,
+          "frame_channel: a 1-channel image of the input's size is needed");
+  require(framed.side > 0, "frame_channel: the framing has no crop");
+  Image grey(channel.width, channel.height, 3);
+  for (size_t i = 0; i < channel.data.size(); ++i)
+    grey.data[3 * i] = grey.data[3 * i + 1] = grey.data[3 * i + 2] = channel.data[i];
+  // Resampled with an opaque alpha: channel 0 is the mean over the footprint's samples inside the input, alpha the
+  // share of them inside; their product counts the outside as 0.
+  const Image rgba = resample_crop(grey, Image(channel.width, channel.height, 1, 1.f), framed.x0, framed.y0,
+                                   framed.side, kNetImageSize);
+  Image out(kNetImageSize, kNetImageSize, 1);
+  for (int y = 0; y < kNetImageSize; ++y)
+    for (int x = 0; x < kNetImageSize; ++x) out.at(x, y) = rgba.at(x, y, 0) * rgba.at(x, y, 3);
+  return out;
+}
+
 Camera camera_in_input(const Camera& network_camera, const FramedInput& framed, int input_width, int input_height) {
   require(framed.side > 0, "camera_in_input: the framing has no crop");
   require(input_width > 0 && input_height > 0, "camera_in_input: input size must be positive");

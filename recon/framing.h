@@ -96,6 +96,10 @@ struct FramedInput {
 FramedInput frame_input(const Image& image, const Image* mask, const FramingSettings& settings,
                         const std::string& what);
 
+/// A 1-channel image of the input's size (e.g. a missing-data mask) taken through the framing's crop to 137 x 137, as
+/// the network image was (the crop's part outside the input is 0). InvalidInput when the sizes differ.
+Image frame_channel(const Image& channel, const FramedInput& framed);
+
 /// A camera of the 137 px network image of `framed` as a camera of the input image (intrinsics mapped through the
 /// crop; same R, t), and its inverse.
 Camera camera_in_input(const Camera& network_camera, const FramedInput& framed, int input_width, int input_height);

@@ -90,14 +90,37 @@ struct Reconstructor::MeshStats {
 };
 
 ReconResult Reconstructor::run(const Image& image, const Image* mask, const Camera* camera,
-                               const ReconSettings& settings, const std::string& what) const {
+                               const ReconSettings& settings, const std::string& what, const Image* missing) const {
   const auto t0 = Clock::now();
+  if (missing != nullptr && (missing->width != image.width || missing->height != image.height))
+    throw InvalidInput(what + ": the missing-data mask is " + std::to_string(missing->width) + " x " +
+                       std::to_string(missing->height) + ", the image " + std::to_string(image.width) + " x " +
+                       std::to_string(image.height));
   FramedInput framed = frame_input(image, mask, settings.framing, what);
-  const Eigen::VectorXf input = network_image(framed.image);
+  Eigen::VectorXf input = network_image(framed.image);
+  if (missing != nullptr) {
+    Image one = *missing;
+    if (one.channels != 1) {  // alpha, else the first channel
+      Image c(one.width, one.height, 1);
+      const int src = one.channels == 2 || one.channels == 4 ? one.channels - 1 : 0;
+      for (int y = 0; y < one.height; ++y)
+        for (int x = 0; x < one.width; ++x) c.at(x, y) = one.at(x, y, src);
+      one = std::move(c);
+    }
+    const Image m = frame_channel(one, framed);
+    const Eigen::Index n = kNetImageSize * kNetImageSize;
+    Eigen::VectorXf full(4 * n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const float w = std::clamp(m.data[static_cast<size_t>(i)], 0.f, 1.f);
+      for (int c = 0; c < 3; ++c) full[c * n + i] = (1 - w) * input[c * n + i] + w * kNetBackground;
+      full[3 * n + i] = w;
+    }
+    input = std::move(full);
+  }
   Image silhouette;
   if (settings.refine_rounds > 0) {
     if (framed.mask_source == "none") {
-      silhouette = input_foreground(input);
+      silhouette = input_foreground(input.head(3 * kNetImageSize * kNetImageSize));
     } else {
       silhouette = Image(kNetImageSize, kNetImageSize, 1);
       for (int y = 0; y < kNetImageSize; ++y)
@@ -130,7 +153,13 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
 Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings,
                                 int resolution, const std::string& what, MeshStats& stats) const {
   auto t = Clock::now();
-  const SdfNet::ShapeCode code = sdf_->encode(input.data(), camera);
+  // RGB (3 x 137 x 137) or RGB + missing-data mask (4 x ...), as the SDF network reads it (nets/dataset.h).
+  const Eigen::Index n = kNetImageSize * kNetImageSize;
+  Eigen::VectorXf mask;
+  if (input.size() == 4 * n) mask = input.tail(n);
+  const Eigen::VectorXf net_input =
+      network_input(input.head(3 * n), mask.size() ? &mask : nullptr, sdf_->config().input_channels);
+  const SdfNet::ShapeCode code = sdf_->encode(net_input.data(), camera);
   stats.encode = since(t);
 
   double field_seconds = 0;
@@ -164,9 +193,15 @@ Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& came
   return mesh;
 }
 
-ReconResult Reconstructor::run_input(const Eigen::VectorXf& input, const Camera* camera, const ReconSettings& settings,
-                                     const std::string& what, const Image* silhouette) const {
-  require(input.size() == 3 * kNetImageSize * kNetImageSize, what + ": network input must be 3 x 137 x 137");
+ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Camera* camera,
+                                     const ReconSettings& settings, const std::string& what,
+                                     const Image* silhouette) const {
+  constexpr Eigen::Index kPixels = kNetImageSize * kNetImageSize;
+  require(full_input.size() == 3 * kPixels || full_input.size() == 4 * kPixels,
+          what + ": network input must be 3 x 137 x 137 (RGB) or 4 x 137 x 137 (RGB + missing-data mask)");
+  // The pose network, the silhouette and the preview read the RGB channels; the SDF network reads the mask too when it
+  // has the channel (reconstruct()).
+  const Eigen::VectorXf input = full_input.head(3 * kPixels);
   require(settings.refine_rounds >= 0, what + ": refinement rounds must be >= 0");
   const int refine_res = std::min(settings.refine_resolution, settings.resolution);
   for (const int res : {settings.resolution, settings.refine_rounds > 0 ? refine_res : settings.resolution}) {
@@ -206,7 +241,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& input, const Camera*
         const MeshForCamera mesh_for = [&](const Camera& c) {
           MeshStats st;
           try {
-            Mesh m = reconstruct(input, c, settings, refine_res, what, st);
+            Mesh m = reconstruct(full_input, c, settings, refine_res, what, st);
             r.evaluations += st.evaluations;
             return m;
           } catch (const Error&) {  // no surface through this camera: an empty silhouette
@@ -217,7 +252,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& input, const Camera*
         rr = refine_camera(mesh_for, *silhouette, r.camera, settings.refine);
       } else {
         MeshStats st;
-        const Mesh m = reconstruct(input, r.camera, settings, refine_res, what, st);
+        const Mesh m = reconstruct(full_input, r.camera, settings, refine_res, what, st);
         r.evaluations += st.evaluations;
         rr = refine_camera(m, *silhouette, r.camera, settings.refine);
       }
@@ -228,7 +263,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& input, const Camera*
   }
 
   MeshStats st;
-  r.mesh = reconstruct(input, r.camera, settings, settings.resolution, what, st);
+  r.mesh = reconstruct(full_input, r.camera, settings, settings.resolution, what, st);
   r.evaluations += st.evaluations;
   r.components_removed = st.components_removed;
   r.timings.encode = st.encode;

@@ -109,10 +109,13 @@ class Reconstructor {
 
   /// Reconstruct one image: frame it (settings.framing), then run_input. `camera` (null = estimate it) is a camera of
   /// the input image (a camera of another size is scaled to the image's size first). `what` names the input in
-  /// error messages.
+  /// error messages. `missing` (optional, 1 channel, the image's size): coverage of the pixels whose content is
+  /// unknown (occluded), taken through the framing; in the network image they are blended to the white background
+  /// by their coverage, which is also the SDF network's mask channel when it has one (an RGB network sees the white).
   ReconResult run(const Image& image, const Image* mask, const Camera* camera, const ReconSettings& settings,
-                  const std::string& what) const;
-  /// Same from a prepared network input (3 x 137 x 137). `silhouette` (137 x 137 coverage: the framed alpha in run()) is
+                  const std::string& what, const Image* missing = nullptr) const;
+  /// Same from a prepared network input: 3 x 137 x 137 RGB, or 4 x 137 x 137 with the missing-data mask (the pose
+  /// network, camera refinement and the preview read the RGB channels). `silhouette` (137 x 137 coverage: the framed alpha in run()) is
   /// the mask camera refinement aligns to; null = input_foreground(input).
   ReconResult run_input(const Eigen::VectorXf& input, const Camera* camera, const ReconSettings& settings,
                         const std::string& what, const Image* silhouette = nullptr) const;

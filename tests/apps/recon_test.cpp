@@ -77,6 +77,49 @@ TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with th
   CHECK(iou_est > 0.5);  // issue 8's goal
 }
 
+TEST_CASE("recon --missing and --occlude: no missing pixel changes nothing, missing ones change the mesh") {
+  REQUIRE_MESSAGE(have_models(), "the shipped models data/models/sdf.ckpt and pose.ckpt are missing");
+  const fs::path dir = test::scratch_dir("recon_cli") / "missing";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string img = kSource + "/data/examples/car_0000.png";
+  const std::string cam = " --cam " + kSource + "/data/examples/car_0000.json --res 33 --no-preview";
+  const std::string none_mask = (dir / "none.png").string(), left_mask = (dir / "left.png").string();
+  Image m(137, 137, 1, 0.f);
+  write_image(none_mask, m);
+  for (int y = 0; y < 137; ++y)
+    for (int x = 0; x < 68; ++x) m.at(x, y) = 1.f;
+  write_image(left_mask, m);
+  const std::string plain = (dir / "plain.obj").string(), none = (dir / "none.obj").string();
+  const std::string left = (dir / "left.obj").string(), occluded = (dir / "occluded.obj").string();
+  for (const auto& [out, extra] : std::vector<std::pair<std::string, std::string>>{
+           {plain, ""}, {none, " --missing " + none_mask}, {left, " --missing " + left_mask},
+           {occluded, " --occlude left"}}) {
+    const Run r = run("recon " + img + " -o " + out + cam + extra);
+    REQUIRE_MESSAGE(r.code == 0, r.err);
+  }
+  // An all-zero mask leaves the network input as it was: the same mesh, byte for byte.
+  CHECK(read_file(none) == read_file(plain));
+  CHECK(read_file(left) != read_file(plain));
+  CHECK(read_file(occluded) != read_file(plain));
+  // Refusals: both flags, a mask of another size, --occlude on an image without alpha.
+  Run r = run("recon " + img + " -o " + (dir / "x.obj").string() + cam + " --missing " + left_mask + " --occlude half");
+  CHECK(r.code == 1);
+  CHECK(r.err.find("not both") != std::string::npos);
+  Image small(40, 30, 1, 0.f);
+  write_image((dir / "small.png").string(), small);
+  r = run("recon " + img + " -o " + (dir / "x.obj").string() + cam + " --missing " + (dir / "small.png").string());
+  CHECK(r.code == 1);
+  CHECK(r.err.find("missing-data mask is 40 x 30") != std::string::npos);
+  Image rgb(137, 137, 3, 1.f);
+  for (int y = 40; y < 90; ++y)
+    for (int x = 40; x < 100; ++x) rgb.at(x, y, 0) = 0.2f;
+  write_image((dir / "rgb.png").string(), rgb);
+  r = run("recon " + (dir / "rgb.png").string() + " -o " + (dir / "x.obj").string() + cam + " --occlude half");
+  CHECK(r.code == 1);
+  CHECK(r.err.find("alpha channel") != std::string::npos);
+}
+
 TEST_CASE("recon refuses corrupt, empty and background-only images with one clear line and exit 1") {
   REQUIRE(have_models());
   const fs::path dir = test::scratch_dir("recon_cli") / "bad";

@@ -214,3 +214,33 @@ TEST_CASE("framing warns when the object touches the border or is small") {
   REQUIRE(s.warnings.size() == 1);
   CHECK(s.warnings[0].find("small") != std::string::npos);
 }
+
+TEST_CASE("framing: a channel of the input's size follows the crop (identity when kept, the object's place when cropped)") {
+  // Kept as it is: the channel comes back unchanged.
+  const TrainingFraming tf;
+  const double r = 0.5 * tf.extent * 137;
+  const Image im = ellipse_image(137, 137, 68.5, 68.5 + tf.centre_dy * 137, r, r, kWhite, true);
+  const FramedInput kept = frame_input(im, nullptr, FramingSettings{}, "render");
+  REQUIRE_FALSE(kept.reframed);
+  Image half(137, 137, 1, 0.f);
+  for (int y = 0; y < 137; ++y)
+    for (int x = 0; x < 60; ++x) half.at(x, y) = 1.f;
+  const Image same = frame_channel(half, kept);
+  double worst = 0;
+  for (size_t i = 0; i < half.data.size(); ++i) worst = std::max(worst, double(std::abs(same.data[i] - half.data[i])));
+  CHECK(worst < 1e-6);
+  // Cropped: the channel that marks the object's pixels lands on the network image's object.
+  const float blue[3] = {0.1f, 0.2f, 0.7f};
+  const Image photo = ellipse_image(300, 180, 230, 60, 40, 25, blue);
+  const FramedInput f = frame_input(photo, nullptr, FramingSettings{}, "photo");
+  REQUIRE(f.reframed);
+  Image object(300, 180, 1);
+  for (int y = 0; y < 180; ++y)
+    for (int x = 0; x < 300; ++x) object.at(x, y) = f.mask.at(x, y);
+  const Image framed = frame_channel(object, f);
+  double diff = 0;
+  for (int y = 0; y < 137; ++y)
+    for (int x = 0; x < 137; ++x) diff = std::max(diff, double(std::abs(framed.at(x, y) - f.image.at(x, y, 3))));
+  CHECK(diff < 1e-5);
+  CHECK_THROWS_AS(frame_channel(Image(10, 10, 1), f), InvalidInput);
+}
