@@ -216,7 +216,7 @@ TEST_CASE("recon of a folder where two images share a stem: the second fails as 
 }
 
 // Issue 19: an object pasted off-centre on a plain coloured background in a non-square image without alpha is
-// found, cropped to the training framing and reconstructed (measured: IoU 63.9 against 67.0 for the render on white,
+// found, cropped to the training framing and reconstructed (measured: IoU 64.9 against 64.1 for the render on white,
 // estimated camera, 65^3; the plane fills 0.70 of its render, near the renders' median 0.67, so the crop restores
 // its scale); the camera refers to the input image; the mask used is
 // written beside the preview; the mesh format follows -o's extension.
