@@ -4,19 +4,7 @@
 
 namespace sdfkit {
 
-namespace {
-
-OptimizerSettings adam_of(const CriticSettings& s) {
-  OptimizerSettings o;
-  o.kind = OptimizerSettings::Kind::kAdam;
-  o.beta1 = s.beta1;
-  o.beta2 = s.beta2;
-  return o;
-}
-
-}  // namespace
-
-Critic::Critic(const CriticSettings& s, uint64_t seed) : s_(s), opt_(adam_of(s), 0) {
+Critic::Critic(const CriticSettings& s, uint64_t seed) : s_(s), opt_(OptimizerSettings::adam(s.beta1, s.beta2), 0) {
   require(s.size >= 16, "critic: the input must be at least 16 px");
   Conv2dSettings stem;
   stem.in_channels = 3;
@@ -45,7 +33,7 @@ Critic::Critic(const CriticSettings& s, uint64_t seed) : s_(s), opt_(adam_of(s),
   net_.add_children_to(params_);
   params_.allocate(true);
   params_.init(seed);
-  opt_ = Optimizer(adam_of(s), params_.size());
+  opt_ = Optimizer(OptimizerSettings::adam(s.beta1, s.beta2), params_.size());
 }
 
 void Critic::forward(const Tensor& images, Tensor& logits) {

@@ -67,6 +67,14 @@ Json OptimizerSettings::to_json() const {
           {"decoupled_weight_decay", decoupled_weight_decay}};
 }
 
+OptimizerSettings OptimizerSettings::adam(double beta1, double beta2) {
+  OptimizerSettings o;
+  o.kind = Kind::kAdam;
+  o.beta1 = beta1;
+  o.beta2 = beta2;
+  return o;
+}
+
 OptimizerSettings OptimizerSettings::from_json(const Json& j) {
   OptimizerSettings s;
   const std::string k = j.at("kind").get<std::string>();

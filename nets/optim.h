@@ -48,6 +48,8 @@ struct OptimizerSettings {
 
   [[nodiscard]] Json to_json() const;
   static OptimizerSettings from_json(const Json& j);
+  /// Adam with the given moment decays, everything else at its default (the critics' optimiser).
+  static OptimizerSettings adam(double beta1, double beta2);
 };
 
 /// Named float buffers plus JSON metadata: what an optimiser (or a model) saves into a checkpoint.

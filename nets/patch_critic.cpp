@@ -5,18 +5,6 @@
 
 namespace sdfkit {
 
-namespace {
-
-OptimizerSettings adam_of(const PatchCriticSettings& s) {
-  OptimizerSettings o;
-  o.kind = OptimizerSettings::Kind::kAdam;
-  o.beta1 = s.beta1;
-  o.beta2 = s.beta2;
-  return o;
-}
-
-}  // namespace
-
 Json PatchCriticSettings::to_json() const {
   return {{"size", size}, {"in_channels", in_channels}, {"stem", stem}, {"widths", widths},
           {"lr", lr},     {"beta1", beta1},             {"beta2", beta2}};
@@ -35,7 +23,8 @@ int PatchCriticSettings::pools() const {
 }
 
 template <typename T>
-PatchCriticT<T>::PatchCriticT(const PatchCriticSettings& s, uint64_t seed) : s_(s), opt_(adam_of(s), 0) {
+PatchCriticT<T>::PatchCriticT(const PatchCriticSettings& s, uint64_t seed)
+    : s_(s), opt_(OptimizerSettings::adam(s.beta1, s.beta2), 0) {
   const int pools = s.pools();
   require(s.in_channels >= 1 && s.stem >= 1 && !s.widths.empty(), "patch critic: channels must be positive");
   for (const int w : s.widths) require(w >= 1, "patch critic: channels must be positive");
@@ -56,7 +45,7 @@ PatchCriticT<T>::PatchCriticT(const PatchCriticSettings& s, uint64_t seed) : s_(
   net_.add_children_to(params_);
   params_.allocate(true);
   params_.init(seed);
-  opt_ = Optimizer(adam_of(s), params_.size());
+  opt_ = Optimizer(OptimizerSettings::adam(s.beta1, s.beta2), params_.size());
 }
 
 template <typename T>
