@@ -122,6 +122,11 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
                "the network reads a fourth input channel, the missing-data mask (1 = pixel unknown, e.g. occluded), "
                "so that missing pixels are not taken for background; --init may name an RGB model of the same "
                "architecture (its first convolution gets zero mask weights)");
+  app.add_flag("--mirror-features", s.net.mirror_features,
+               "the local stream also reads the image features at the projection of each point's mirror image "
+               "across the object's x = 0 plane (its symmetry plane in ShapeNet-style data), with weights of its own, "
+               "so that hidden parts can read their visible twin; --init may name a model without them (their "
+               "weights start at 0)");
   app.add_option("--adversarial", s.adversarial.weight,
                  "weight of the occlusion paper's conditional patch critic (0 = off): each item's predicted field is "
                  "rendered as a soft silhouette through its camera and judged, stacked on the input image, against the "

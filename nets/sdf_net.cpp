@@ -42,6 +42,7 @@ Json SdfNetConfig::to_json() const {
           {"point_mlp", point_mlp},
           {"decoder", decoder},
           {"one_stream_maps", one_stream_maps},
+          {"mirror_features", mirror_features},
           {"sdf_scale", sdf_scale},
           {"sdf_offset", sdf_offset}};
 }
@@ -59,6 +60,7 @@ SdfNetConfig SdfNetConfig::from_json(const Json& j) {
     c.point_mlp = j.at("point_mlp").get<std::vector<int>>();
     c.decoder = j.at("decoder").get<std::vector<int>>();
     c.one_stream_maps = j.at("one_stream_maps").get<int>();
+    c.mirror_features = j.value("mirror_features", false);  // absent in models written before the option existed
     c.sdf_scale = j.at("sdf_scale").get<float>();
     c.sdf_offset = j.at("sdf_offset").get<float>();
   } catch (const InvalidInput& e) {
@@ -113,6 +115,7 @@ struct SdfNetT<T>::Impl {
     // The first layer's local part W_L L(p) = sum_k W_k sample(map_k, p) = sum_k sample(W_k map_k, p): the 1x1
     // convolutions W_k run once per image and each point gathers H1 values per map (exact: sampling is linear).
     std::vector<std::unique_ptr<Conv2d<T>>> local_proj;
+    std::vector<std::unique_ptr<Conv2d<T>>> mirror_proj;  // the same for the mirror features (or empty)
     Activation<T> act{ActivationKind::kReLU};
     Sequential<T> rest;  // H1 -> ... -> 1
   };
@@ -131,11 +134,13 @@ struct SdfNetT<T>::Workspace::Data {
   std::vector<TensorT<T>> global_acts;
   TensorT<T> points;                           // B x N x 3
   TensorT<T> positions;                        // B x N x 2
+  TensorT<T> positions_mirror;                 // B x N x 2: projections of the mirrored points
   struct StreamActs {
     std::vector<TensorT<T>> pmlp;
     TensorT<T> z, h, gbias;
     std::vector<TensorT<T>> proj;  // per map projected first: B x H1 x h_k x w_k
     std::vector<TensorT<T>> feat;  // per map sampled first: B x N x c_k
+    std::vector<TensorT<T>> proj_mirror, feat_mirror;  // the same for the mirror features
     std::vector<TensorT<T>> rest;
   };
   std::vector<StreamActs> streams;
@@ -203,8 +208,11 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
     const int h1 = c.decoder[0];
     s.first_p = std::make_unique<Linear<T>>(prev, h1, !uses_global);
     if (uses_global) s.first_g = std::make_unique<Linear<T>>(c.global_features, h1, true);
-    for (int k = 0; k < local_maps; ++k)
+    for (int k = 0; k < local_maps; ++k) {
       s.local_proj.push_back(std::make_unique<Conv2d<T>>(Conv2dSettings{m.map_channels[k], h1, 1, 1, 0, false}));
+      if (c.mirror_features)
+        s.mirror_proj.push_back(std::make_unique<Conv2d<T>>(Conv2dSettings{m.map_channels[k], h1, 1, 1, 0, false}));
+    }
     prev = h1;
     for (size_t i = 1; i < c.decoder.size(); ++i) {
       s.rest.template emplace<Linear<T>>(prev, c.decoder[i]);
@@ -238,6 +246,9 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
     for (auto& p : s.local_proj) store_.add(*p);
     s.rest.add_children_to(store_);
   }
+  // The mirror weights come last, so that a network with them extends the layout of one without.
+  for (auto& s : m.streams)
+    for (auto& p : s.mirror_proj) store_.add(*p);
   store_.allocate(false);
 }
 
@@ -272,14 +283,15 @@ double SdfNetT<T>::train_step_flops(int batch, int points) const {
     fwd += s.first_p->forward_flops(out);
     if (s.first_g) fwd += s.first_g->forward_flops({1, config_.global_features});
     const int64_t h1 = config_.decoder[0];
+    const int sets = s.mirror_proj.empty() ? 1 : 2;  // the point's own features, and its mirror's
     for (int k = 0; k < s.local_maps; ++k) {
       const int64_t side = m.map_sizes[static_cast<size_t>(k)], c = m.map_channels[static_cast<size_t>(k)];
       if (sample_first(P, side * side)) {  // gather c channels, then one GEMM over the points
-        fwd += 8.0 * static_cast<double>(P * c) + 2.0 * static_cast<double>(P * c * h1);
+        fwd += sets * (8.0 * static_cast<double>(P * c) + 2.0 * static_cast<double>(P * c * h1));
         continue;
       }
-      fwd += s.local_proj[static_cast<size_t>(k)]->forward_flops({1, c, side, side});
-      fwd += 8.0 * static_cast<double>(P * h1);  // bilinear gather: 4 weighted taps of h1 values
+      fwd += sets * s.local_proj[static_cast<size_t>(k)]->forward_flops({1, c, side, side});
+      fwd += sets * 8.0 * static_cast<double>(P * h1);  // bilinear gather: 4 weighted taps of h1 values
     }
     fwd += s.rest.flops({1, P, h1});
   }
@@ -328,11 +340,17 @@ void SdfNetT<T>::forward(const TensorT<T>& images, const std::vector<Camera>& ca
   // Projections and local features.
   ws.points = points;
   ws.positions.resize({B, N, 2});
+  const bool mirror = config_.mirror_features && m.max_local_maps > 0;
+  if (mirror) ws.positions_mirror.resize({B, N, 2});
   if (m.max_local_maps > 0) {
     tbb::parallel_for(int64_t(0), B, [&](int64_t b) {
       PointsF p = Eigen::Map<const Eigen::Matrix<T, Eigen::Dynamic, 3, Eigen::RowMajor>>(points.item(b), N, 3)
                       .template cast<float>();
       project_for_sampling<T>(cameras[static_cast<size_t>(b)], p, S, ws.positions.item(b));
+      if (mirror) {
+        p.col(0) = -p.col(0);
+        project_for_sampling<T>(cameras[static_cast<size_t>(b)], p, S, ws.positions_mirror.item(b));
+      }
     });
   }
   BilinearSampleSettings bs{S, S};
@@ -351,24 +369,30 @@ void SdfNetT<T>::forward(const TensorT<T>& images, const std::vector<Camera>& ca
       broadcast_points(a.gbias, N, bc);
       for (int64_t i = 0; i < a.z.size(); ++i) a.z[i] += bc[i];
     }
-    a.proj.resize(static_cast<size_t>(s.local_maps));
-    a.feat.resize(static_cast<size_t>(s.local_maps));
     const int64_t h1 = a.z.dim(2);
-    for (int k = 0; k < s.local_maps; ++k) {
-      const int64_t side = m.map_sizes[static_cast<size_t>(k)], c = m.map_channels[static_cast<size_t>(k)];
-      if (sample_first(N, side * side)) {
-        bilinear_sample(ws.maps[k], ws.positions, a.feat[k], bs);
-        MatMapT<T>(a.z.ptr(), B * N, h1).noalias() +=
-            ConstMatMapT<T>(a.feat[k].ptr(), B * N, c) * ConstMatMapT<T>(s.local_proj[k]->params(), h1, c).transpose();
-        a.proj[k] = TensorT<T>();
-        continue;
+    // z += sum_k W_k sample(map_k, positions), in the cheaper order per map.
+    auto add_local = [&](const std::vector<std::unique_ptr<Conv2d<T>>>& weights, const TensorT<T>& positions,
+                         std::vector<TensorT<T>>& proj, std::vector<TensorT<T>>& feat) {
+      proj.resize(weights.size());
+      feat.resize(weights.size());
+      for (size_t k = 0; k < weights.size(); ++k) {
+        const int64_t side = m.map_sizes[k], c = m.map_channels[k];
+        if (sample_first(N, side * side)) {
+          bilinear_sample(ws.maps[k], positions, feat[k], bs);
+          MatMapT<T>(a.z.ptr(), B * N, h1).noalias() +=
+              ConstMatMapT<T>(feat[k].ptr(), B * N, c) * ConstMatMapT<T>(weights[k]->params(), h1, c).transpose();
+          proj[k] = TensorT<T>();
+          continue;
+        }
+        weights[k]->forward(ws.maps[k], proj[k]);
+        TensorT<T> f;
+        bilinear_sample(proj[k], positions, f, bs);
+        for (int64_t i = 0; i < a.z.size(); ++i) a.z[i] += f[i];
+        feat[k] = TensorT<T>();
       }
-      s.local_proj[k]->forward(ws.maps[k], a.proj[k]);
-      TensorT<T> f;
-      bilinear_sample(a.proj[k], ws.positions, f, bs);
-      for (int64_t i = 0; i < a.z.size(); ++i) a.z[i] += f[i];
-      a.feat[k] = TensorT<T>();
-    }
+    };
+    add_local(s.local_proj, ws.positions, a.proj, a.feat);
+    add_local(s.mirror_proj, ws.positions_mirror, a.proj_mirror, a.feat_mirror);
     s.act.forward(a.z, a.h);
     s.rest.forward_into(a.h, a.rest);
     const TensorT<T>& out = Sequential<T>::output(a.h, a.rest);
@@ -402,23 +426,28 @@ void SdfNetT<T>::backward(Workspace& wsp, const TensorT<T>& dpred) const {
       add_into(dG, dGs);
     }
     const int64_t h1 = dz.dim(2);
-    for (int k = 0; k < s.local_maps; ++k) {
-      if (!a.feat[k].empty()) {  // sampled first: z += F W_k^T
-        const int64_t c = a.feat[k].dim(2);
-        const ConstMatMapT<T> dZ(dz.ptr(), B * N, h1), F(a.feat[k].ptr(), B * N, c);
-        MatMapT<T>(s.local_proj[k]->grads(), h1, c).noalias() += dZ.transpose() * F;
-        TensorT<T> df({B, N, c});
-        MatMapT<T>(df.ptr(), B * N, c).noalias() = dZ * ConstMatMapT<T>(s.local_proj[k]->params(), h1, c);
-        TensorT<T> dmap;
-        bilinear_sample_backward<T>(ws.maps[k], ws.positions, df, &dmap, static_cast<TensorT<T>*>(nullptr), bs);
+    auto local_backward = [&](const std::vector<std::unique_ptr<Conv2d<T>>>& weights, const TensorT<T>& positions,
+                              const std::vector<TensorT<T>>& proj, const std::vector<TensorT<T>>& feat) {
+      for (size_t k = 0; k < weights.size(); ++k) {
+        if (!feat[k].empty()) {  // sampled first: z += F W_k^T
+          const int64_t c = feat[k].dim(2);
+          const ConstMatMapT<T> dZ(dz.ptr(), B * N, h1), F(feat[k].ptr(), B * N, c);
+          MatMapT<T>(weights[k]->grads(), h1, c).noalias() += dZ.transpose() * F;
+          TensorT<T> df({B, N, c});
+          MatMapT<T>(df.ptr(), B * N, c).noalias() = dZ * ConstMatMapT<T>(weights[k]->params(), h1, c);
+          TensorT<T> dmap;
+          bilinear_sample_backward<T>(ws.maps[k], positions, df, &dmap, static_cast<TensorT<T>*>(nullptr), bs);
+          add_into(dmaps[k], dmap);
+          continue;
+        }
+        TensorT<T> dproj(proj[k].shape, T(0)), dmap;
+        bilinear_sample_backward<T>(proj[k], positions, dz, &dproj, static_cast<TensorT<T>*>(nullptr), bs);
+        weights[k]->backward(ws.maps[k], proj[k], dproj, &dmap);
         add_into(dmaps[k], dmap);
-        continue;
       }
-      TensorT<T> dproj(a.proj[k].shape, T(0)), dmap;
-      bilinear_sample_backward<T>(a.proj[k], ws.positions, dz, &dproj, static_cast<TensorT<T>*>(nullptr), bs);
-      s.local_proj[k]->backward(ws.maps[k], a.proj[k], dproj, &dmap);
-      add_into(dmaps[k], dmap);
-    }
+    };
+    local_backward(s.local_proj, ws.positions, a.proj, a.feat);
+    local_backward(s.mirror_proj, ws.positions_mirror, a.proj_mirror, a.feat_mirror);
     const TensorT<T>& pf = Sequential<T>::output(ws.points, a.pmlp);
     s.first_p->backward(pf, a.z, dz, &dpf);
     s.point_mlp.backward_from(ws.points, a.pmlp, dpf, nullptr);
@@ -455,19 +484,24 @@ typename SdfNetT<T>::ShapeCode SdfNetT<T>::encode(const T* image, const Camera& 
   m.global.run(*in, code.global);
   code.bias.resize(m.streams.size());
   code.proj.resize(m.streams.size());
-  for (size_t si = 0; si < m.streams.size(); ++si) {
-    const auto& s = m.streams[si];
-    if (s.uses_global) s.first_g->forward(code.global, code.bias[si]);
-    code.proj[si].resize(static_cast<size_t>(s.local_maps));
-    for (int k = 0; k < s.local_maps; ++k) {
+  code.proj_mirror.resize(m.streams.size());
+  auto project = [&](const std::vector<std::unique_ptr<Conv2d<T>>>& weights, std::vector<TensorT<T>>& out) {
+    out.resize(weights.size());
+    for (size_t k = 0; k < weights.size(); ++k) {
       TensorT<T> chw;
-      s.local_proj[k]->forward(code.maps[k], chw);
+      weights[k]->forward(code.maps[k], chw);
       const int64_t C = chw.dim(1), HW = chw.dim(2) * chw.dim(3);
-      TensorT<T>& hwc = code.proj[si][static_cast<size_t>(k)];
+      TensorT<T>& hwc = out[k];
       hwc.resize({chw.dim(2), chw.dim(3), C});
       for (int64_t c = 0; c < C; ++c)
         for (int64_t i = 0; i < HW; ++i) hwc[i * C + c] = chw[c * HW + i];
     }
+  };
+  for (size_t si = 0; si < m.streams.size(); ++si) {
+    const auto& s = m.streams[si];
+    if (s.uses_global) s.first_g->forward(code.global, code.bias[si]);
+    project(s.local_proj, code.proj[si]);
+    project(s.mirror_proj, code.proj_mirror[si]);
   }
   return code;
 }
@@ -534,21 +568,28 @@ void SdfNetT<T>::predict(const ShapeCode& code, const PointsF& points, Eigen::Ma
   const BilinearSampleSettings bs{S, S};
   const auto total = static_cast<int64_t>(points.rows());
   pred.setZero(total);
-  require(code.bias.size() == m.streams.size() && code.proj.size() == m.streams.size(),
+  require(code.bias.size() == m.streams.size() && code.proj.size() == m.streams.size() &&
+              code.proj_mirror.size() == m.streams.size(),
           "SDF network: the shape code was not made by this network");
+  const bool mirror = config_.mirror_features && m.max_local_maps > 0;
   const int64_t block = std::clamp<int64_t>(chunk, 1, 256);
   const int64_t blocks = (total + block - 1) / block;
   tbb::parallel_for(tbb::blocked_range<int64_t>(0, blocks), [&](const tbb::blocked_range<int64_t>& range) {
     flush_denormals_on_this_thread();
     RowMat<T> x, a, b, z, c, d;
-    std::vector<T> pos;
+    std::vector<T> pos, pos_mirror;
     for (int64_t bi = range.begin(); bi < range.end(); ++bi) {
       const int64_t c0 = bi * block, n = std::min(block, total - c0);
-      const PointsF p = points.middleRows(c0, n);
+      PointsF p = points.middleRows(c0, n);
       x = p.template cast<T>();
       if (m.max_local_maps > 0) {
         pos.resize(static_cast<size_t>(2 * n));
         project_for_sampling<T>(code.camera, p, S, pos.data());
+      }
+      if (mirror) {
+        pos_mirror.resize(static_cast<size_t>(2 * n));
+        p.col(0) = -p.col(0);
+        project_for_sampling<T>(code.camera, p, S, pos_mirror.data());
       }
       for (size_t si = 0; si < m.streams.size(); ++si) {
         const auto& s = m.streams[si];
@@ -561,6 +602,12 @@ void SdfNetT<T>::predict(const ShapeCode& code, const PointsF& points, Eigen::Ma
           for (int64_t i = 0; i < n; ++i)
             bilinear_accumulate_hwc(map.ptr(), map.dim(0), map.dim(1), H, pos[2 * i], pos[2 * i + 1], bs,
                                     z.data() + i * H);
+        }
+        for (size_t k = 0; k < code.proj_mirror[si].size(); ++k) {
+          const TensorT<T>& map = code.proj_mirror[si][k];
+          for (int64_t i = 0; i < n; ++i)
+            bilinear_accumulate_hwc(map.ptr(), map.dim(0), map.dim(1), H, pos_mirror[2 * i], pos_mirror[2 * i + 1],
+                                    bs, z.data() + i * H);
         }
         z = z.cwiseMax(T(0));
         const RowMat<T>& out = run_rows(s.rest, z, c, d);
@@ -579,24 +626,40 @@ void SdfNetT<T>::field(const ShapeCode& code, const Points& points, Eigen::Vecto
 }
 
 template <typename T>
-void SdfNetT<T>::adopt_rgb_parameters(const SdfNetT& other) {
-  SdfNetConfig as_rgb = config_;
-  as_rgb.input_channels = 3;
-  require(config_.input_channels == 4 && other.config_.to_json() == as_rgb.to_json(),
-          "SDF network: adopt_rgb_parameters needs an RGB model of the same architecture as this RGB + mask one");
-  // Layer 0 is the first convolution: weights Cout x (Cin * 3 * 3), input channel slowest, then Cout biases.
-  const auto& conv = static_cast<const Conv2d<T>&>(*store_.layers().at(0));
-  const int out_c = conv.settings().out_channels, k2 = conv.settings().kernel * conv.settings().kernel;
+bool SdfNetT<T>::can_adopt(const SdfNetConfig& from, const SdfNetConfig& to) {
+  if (from.input_channels > to.input_channels || (from.mirror_features && !to.mirror_features)) return false;
+  if (from.input_channels == to.input_channels && from.mirror_features == to.mirror_features) return false;
+  SdfNetConfig f = from;
+  f.input_channels = to.input_channels;
+  f.mirror_features = to.mirror_features;
+  return f.to_json() == to.to_json();
+}
+
+template <typename T>
+void SdfNetT<T>::adopt_parameters(const SdfNetT& other) {
+  require(can_adopt(other.config_, config_),
+          "SDF network: adopt_parameters needs a model of the same architecture that lacks only the mask channel "
+          "and/or the mirror features of this one");
   const T* src = other.store_.values.data();
   T* dst = store_.values.data();
-  for (int o = 0; o < out_c; ++o) {
-    std::copy(src + o * 3 * k2, src + (o + 1) * 3 * k2, dst + o * 4 * k2);
-    std::fill(dst + o * 4 * k2 + 3 * k2, dst + (o + 1) * 4 * k2, T(0));
+  size_t rest_src = 0, rest_dst = 0;
+  if (other.config_.input_channels == 3 && config_.input_channels == 4) {
+    // Layer 0 is the first convolution: weights Cout x (Cin * 3 * 3), input channel slowest, then Cout biases.
+    const auto& conv = static_cast<const Conv2d<T>&>(*store_.layers().at(0));
+    const int out_c = conv.settings().out_channels, k2 = conv.settings().kernel * conv.settings().kernel;
+    for (int o = 0; o < out_c; ++o) {
+      std::copy(src + o * 3 * k2, src + (o + 1) * 3 * k2, dst + o * 4 * k2);
+      std::fill(dst + o * 4 * k2 + 3 * k2, dst + (o + 1) * 4 * k2, T(0));
+    }
+    std::copy(src + out_c * 3 * k2, src + out_c * 3 * k2 + out_c, dst + out_c * 4 * k2);
+    rest_src = other.store_.offset(1);
+    rest_dst = store_.offset(1);
   }
-  std::copy(src + out_c * 3 * k2, src + out_c * 3 * k2 + out_c, dst + out_c * 4 * k2);
-  const size_t rest_src = other.store_.offset(1), rest_dst = store_.offset(1);
-  require(other.store_.size() - rest_src == store_.size() - rest_dst, "SDF network: parameter layouts differ");
+  // Every other layer of `other` has its twin at the same place here; the mirror weights follow them.
+  const size_t n = other.store_.size() - rest_src;
+  require(rest_dst + n <= store_.size(), "SDF network: parameter layouts differ");
   std::copy(src + rest_src, src + other.store_.size(), dst + rest_dst);
+  std::fill(dst + rest_dst + n, dst + store_.size(), T(0));
 }
 
 template class SdfNetT<float>;

@@ -14,6 +14,10 @@
 //   multiplying its full local feature. Inference always works this way; training takes, per map, the cheaper of
 //   the two exact orders (project then sample when the map has fewer pixels than the item has points, else
 //   sample the map's channels and multiply by W_k).
+//   mirror features (optional): the local stream also samples the maps at the projection of the point's mirror
+//   image across the object frame's x = 0 plane, the plane ShapeNet-style shapes are symmetric about, through
+//   first-layer weights of its own, so that a part hidden in the image (occluded, or behind the object) can read
+//   the features of its visible twin (the symmetry-aware local features of Ladybird, Xu et al. 2020).
 //   output = global + local (two-stream), or one decoder on [P, G, L(first maps)] (one-stream), or the global
 //   stream alone (global-only); the binary variant has the two-stream architecture and predicts an occupancy
 //   logit (trained with BCE) instead of 10 x (sdf - 0.003).
@@ -57,6 +61,8 @@ struct SdfNetConfig {
   std::vector<int> point_mlp{32, 64};   ///< 3 -> ... (ReLU after every layer), per stream
   std::vector<int> decoder{96, 48};     ///< hidden widths of each stream's decoder, then -> 1
   int one_stream_maps = 3;              ///< one-stream: local features from the first K maps (DISN: 3 of 5)
+  /// The local stream also reads the features at the projection of (-x, y, z), with weights of its own.
+  bool mirror_features = false;
   float sdf_scale = 10.f;               ///< pred = sdf_scale * (sdf - sdf_offset)
   float sdf_offset = 0.003f;
 
@@ -119,6 +125,7 @@ class SdfNetT {
     /// per stream, per map used: h_k x w_k x H1 (channel-last, so the H1 values a point gathers from one pixel
     /// are contiguous), the first layer's local weights applied to every map pixel
     std::vector<std::vector<TensorT<T>>> proj;
+    std::vector<std::vector<TensorT<T>>> proj_mirror;  ///< the same for the mirror features' weights
     Camera camera;
   };
   /// Encode one image (C x S x S channels-first, C = input_channels, values in [0,1]) seen from `camera`.
@@ -140,10 +147,14 @@ class SdfNetT {
   /// are never computed. Per-shape work (encoder, global feature, local projections) is counted once per item.
   [[nodiscard]] double train_step_flops(int batch, int points) const;
 
-  /// Copy the parameters of `other`, whose configuration equals this one's except that it reads RGB (3 channels)
-  /// and this network RGB + mask (4): the first convolution's mask weights are set to 0, so this network computes
-  /// exactly what `other` does on any input whose mask is 0. InvalidInput for any other configuration pair.
-  void adopt_rgb_parameters(const SdfNetT& other);
+  /// Copy the parameters of `other`, whose configuration equals this one's except that it may read RGB (3
+  /// channels) where this network reads RGB + mask (4), and may lack the mirror features this one has: the new
+  /// weights (the first convolution's mask weights, the mirror features' first-layer weights) are set to 0, so
+  /// this network computes exactly what `other` does on any input whose mask is 0. InvalidInput for any other
+  /// configuration pair, and for identical ones (copy the parameters instead).
+  void adopt_parameters(const SdfNetT& other);
+  /// Whether adopt_parameters accepts a model of configuration `from` for a network of configuration `to`.
+  static bool can_adopt(const SdfNetConfig& from, const SdfNetConfig& to);
 
   /// Channel count of the local feature a stream sees (0 for global-only).
   [[nodiscard]] int local_channels(int stream) const;

@@ -225,10 +225,8 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   net.init(st.seed);
   if (!st.init.empty()) {
     const auto start = load_sdf_model(st.init);
-    SdfNetConfig as_rgb = st.net;
-    as_rgb.input_channels = 3;
-    if (st.net.input_channels == 4 && start->config().to_json() == as_rgb.to_json()) {
-      net.adopt_rgb_parameters(*start);
+    if (SdfNet::can_adopt(start->config(), st.net)) {
+      net.adopt_parameters(*start);  // an RGB model for an RGB + mask network, or one without mirror features
     } else if (start->config().to_json() != st.net.to_json()) {
       throw InvalidInput(st.init + ": --init model has another configuration than the network being trained (" +
                          start->config().to_json().dump() + " vs " + st.net.to_json().dump() + ")");

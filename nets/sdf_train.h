@@ -55,8 +55,9 @@ struct SdfTrainSettings {
   int max_shapes = 0;               ///< use only the first N training shapes (0 = all)
   uint64_t seed = 1;
   bool resume = false;              ///< continue from `out` if it exists
-  /// Start from this model's weights (same configuration, or the same one reading RGB only when the network reads
-  /// RGB + mask: SdfNet::adopt_rgb_parameters) instead of the seeded initialisation; fresh optimiser.
+  /// Start from this model's weights (same configuration, or the same one without the mask channel and/or the
+  /// mirror features this network has: SdfNet::adopt_parameters) instead of the seeded initialisation; fresh
+  /// optimiser.
   std::string init;
   /// Camera jitter (degrees, 0 = off): each training item's camera is turned about the object's vertical axis by
   /// a Gaussian angle of this standard deviation before the local features are sampled (the SDF targets stay), so

@@ -44,6 +44,10 @@ std::vector<SdfNetConfig> tiny_configs() {
   all.push_back(tiny_config(SdfVariant::kTwoStream, 1));
   all.push_back(tiny_config(SdfVariant::kTwoStream));
   all.back().input_channels = 4;  // RGB + missing-data mask
+  all.push_back(tiny_config(SdfVariant::kTwoStream, 1));
+  all.back().mirror_features = true;  // one map sampled first (17 px > N), the others projected first
+  all.push_back(tiny_config(SdfVariant::kOneStream));
+  all.back().mirror_features = true;
   return all;
 }
 
@@ -149,7 +153,7 @@ TEST_CASE("SDF network: an RGB + mask network adopting an RGB model computes the
   SdfNetT<double> rgb(rgb_config), masked(masked_config);
   rgb.init(4);
   masked.init(9);
-  masked.adopt_rgb_parameters(rgb);
+  masked.adopt_parameters(rgb);
   Rng rng(8);
   const int N = 25, S = 17;
   TensorT<double> image4 = random_tensor<double>({1, 4, S, S}, rng, 0.0, 1.0);
@@ -187,8 +191,87 @@ TEST_CASE("SDF network: an RGB + mask network adopting an RGB model computes the
   SdfNetConfig other = rgb_config;
   other.global_features = 5;
   SdfNetT<double> wrong(other);
-  CHECK_THROWS_AS(masked.adopt_rgb_parameters(wrong), InvalidInput);
-  CHECK_THROWS_AS(rgb.adopt_rgb_parameters(rgb), InvalidInput);
+  CHECK_THROWS_AS(masked.adopt_parameters(wrong), InvalidInput);
+  CHECK_THROWS_AS(rgb.adopt_parameters(rgb), InvalidInput);
+}
+
+TEST_CASE("SDF network: mirror features read the image where the point's mirror image projects") {
+  // Independent reference: with its own local weights zeroed and its mirror weights set to a plain network's
+  // local weights, a mirror network seen through the mirrored camera R diag(-1, 1, 1) projects (-x, y, z) where
+  // the plain network projects (x, y, z), so the two compute the same field (the point MLPs see the same point).
+  const SdfNetConfig plain_config = tiny_config(SdfVariant::kTwoStream, 1);
+  SdfNetConfig mirror_config = plain_config;
+  mirror_config.mirror_features = true;
+  SdfNetT<double> plain(plain_config), mirror(mirror_config);
+  plain.init(3);
+  mirror.init(11);
+  CHECK(mirror.n_params() > plain.n_params());
+  mirror.adopt_parameters(plain);
+  Rng rng(6);
+  const int N = 30, S = 17;
+  const TensorT<double> image = random_tensor<double>({1, 3, S, S}, rng, 0.0, 1.0);
+  const TensorT<double> points = random_tensor<double>({1, N, 3}, rng, -0.6, 0.6);
+  const Camera cam = look_at(35, 20, 2.0, S, S);
+  SdfNetT<double>::Workspace wp, wm;
+  TensorT<double> pp, pm;
+  plain.forward(image, {cam}, points, wp, pp);
+  // 1. Adopted with zero mirror weights: the same field.
+  mirror.forward(image, {cam}, points, wm, pm);
+  for (int i = 0; i < N; ++i) CHECK(pm[i] == doctest::Approx(pp[i]).epsilon(1e-12).scale(1.0));
+  // 2. Own local weights zeroed, mirror weights = the plain network's local weights, mirrored camera.
+  const size_t tail = plain.n_params();
+  auto& v = mirror.params().values;
+  const auto& layers = mirror.params().layers();
+  size_t local_begin = 0, local_end = 0;  // the plain local weights are the last Conv2d layers before `tail`
+  for (size_t l = 0; l < layers.size(); ++l)
+    if (layers[l]->type() == "conv2d" && mirror.params().offset(l) < tail &&
+        static_cast<const Conv2d<double>*>(layers[l])->settings().kernel == 1) {
+      if (local_begin == 0) local_begin = mirror.params().offset(l);
+      local_end = mirror.params().offset(l) + layers[l]->n_params();
+    }
+  REQUIRE(local_end > local_begin);
+  REQUIRE(v.size() - tail == local_end - local_begin);
+  std::copy(v.begin() + static_cast<std::ptrdiff_t>(local_begin), v.begin() + static_cast<std::ptrdiff_t>(local_end),
+            v.begin() + static_cast<std::ptrdiff_t>(tail));
+  std::fill(v.begin() + static_cast<std::ptrdiff_t>(local_begin), v.begin() + static_cast<std::ptrdiff_t>(local_end), 0.0);
+  Camera mirrored = cam;
+  mirrored.R = cam.R * Eigen::Vector3d(-1, 1, 1).asDiagonal();
+  mirror.forward(image, {mirrored}, points, wm, pm);
+  double moved = 0;
+  for (int i = 0; i < N; ++i) {
+    CHECK(pm[i] == doctest::Approx(pp[i]).epsilon(1e-10).scale(1.0));
+    moved += std::abs(pm[i] - pp[i]);
+  }
+  // ... which the unmirrored camera does not give (the mirror weights are read).
+  mirror.forward(image, {cam}, points, wm, pm);
+  double differs = 0;
+  for (int i = 0; i < N; ++i) differs += std::abs(pm[i] - pp[i]);
+  CHECK(differs > 1e-6);
+  // 3. The per-shape inference path agrees.
+  const auto code = mirror.encode(image.ptr(), mirrored);
+  PointsF p(N, 3);
+  for (int i = 0; i < N; ++i)
+    for (int d = 0; d < 3; ++d) p(i, d) = static_cast<float>(points[3 * i + d]);
+  Eigen::VectorXd inf;
+  mirror.predict(code, p, inf);
+  for (int i = 0; i < N; ++i) CHECK(inf[i] == doctest::Approx(pp[i]).epsilon(1e-4).scale(1.0));
+  // 4. RGB without mirror -> RGB + mask with mirror in one adoption; the reverse and the identity are refused.
+  SdfNetConfig both = mirror_config;
+  both.input_channels = 4;
+  SdfNetT<double> masked_mirror(both);
+  masked_mirror.adopt_parameters(plain);
+  TensorT<double> image4({1, 4, S, S}, 0.0);
+  std::copy(image.ptr(), image.ptr() + 3 * S * S, image4.ptr());
+  SdfNetT<double>::Workspace w4;
+  TensorT<double> p4;
+  masked_mirror.forward(image4, {cam}, points, w4, p4);
+  for (int i = 0; i < N; ++i) CHECK(p4[i] == doctest::Approx(pp[i]).epsilon(1e-12).scale(1.0));
+  CHECK_THROWS_AS(plain.adopt_parameters(mirror), InvalidInput);
+  CHECK_THROWS_AS(mirror.adopt_parameters(mirror), InvalidInput);
+  CHECK(SdfNetConfig::from_json(mirror_config.to_json()).mirror_features);
+  Json old = plain_config.to_json();
+  old.erase("mirror_features");
+  CHECK_FALSE(SdfNetConfig::from_json(old).mirror_features);
 }
 
 TEST_CASE("SDF network: the local-feature path is used and samples where the point projects") {

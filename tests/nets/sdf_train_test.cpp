@@ -361,6 +361,15 @@ TEST_CASE("occluded training with a mask channel: recorded, starts from an RGB m
   const Checkpoint ck = load_checkpoint((root / "o_straight.ckpt").string());
   CHECK(ck.header.at("config").at("input_channels") == 4);
   CHECK(ck.header.at("training").at("occlusion").at("kind") == "mixed");
+  // A network with mirror features starts from the same RGB model (its new weights at 0) and resumes bit for bit.
+  {
+    SdfTrainSettings sym = st;
+    sym.net.mirror_features = true;
+    straight_and_split(sym, root, "m");
+    CHECK(params(root, "m_straight.ckpt") == params(root, "m_split.ckpt"));
+    CHECK(load_checkpoint((root / "m_straight.ckpt").string()).header.at("config").at("mirror_features") == true);
+    CHECK(params(root, "m_straight.ckpt").size() > params(root, "o_straight.ckpt").size());
+  }
   // The occluded images changed the training: the same run without occlusion ends elsewhere.
   st.occlusion.prob = 0;
   st.out = (root / "o_plain.ckpt").string();
