@@ -597,18 +597,15 @@ void SdfNetT<T>::predict(const ShapeCode& code, const PointsF& points, Eigen::Ma
         linear_rows(*s.first_p, pf, z);
         const int64_t H = z.cols();
         if (s.uses_global) z.rowwise() += Eigen::Map<const Eigen::Matrix<T, 1, Eigen::Dynamic>>(code.bias[si].ptr(), H);
-        for (int k = 0; k < s.local_maps; ++k) {
-          const TensorT<T>& map = code.proj[si][static_cast<size_t>(k)];
-          for (int64_t i = 0; i < n; ++i)
-            bilinear_accumulate_hwc(map.ptr(), map.dim(0), map.dim(1), H, pos[2 * i], pos[2 * i + 1], bs,
-                                    z.data() + i * H);
-        }
-        for (size_t k = 0; k < code.proj_mirror[si].size(); ++k) {
-          const TensorT<T>& map = code.proj_mirror[si][k];
-          for (int64_t i = 0; i < n; ++i)
-            bilinear_accumulate_hwc(map.ptr(), map.dim(0), map.dim(1), H, pos_mirror[2 * i], pos_mirror[2 * i + 1],
-                                    bs, z.data() + i * H);
-        }
+        // z += the projected maps' values at each point's position (its own, then its mirror image's).
+        auto gather = [&](const std::vector<TensorT<T>>& maps, const std::vector<T>& positions) {
+          for (const TensorT<T>& map : maps)
+            for (int64_t i = 0; i < n; ++i)
+              bilinear_accumulate_hwc(map.ptr(), map.dim(0), map.dim(1), H, positions[2 * i], positions[2 * i + 1],
+                                      bs, z.data() + i * H);
+        };
+        gather(code.proj[si], pos);
+        gather(code.proj_mirror[si], pos_mirror);
         z = z.cwiseMax(T(0));
         const RowMat<T>& out = run_rows(s.rest, z, c, d);
         pred.segment(c0, n) += out.col(0);
