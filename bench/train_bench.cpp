@@ -144,18 +144,22 @@ std::vector<TrainBenchConfig> train_bench_configs() {
   TrainBenchConfig shipped;
   shipped.name = "shipped";
   shipped.description =
-      "train sdf defaults (the shipped model): encoder 16,32,64,128,192,256 from a full-resolution first map, "
-      "global 512, point MLP 64,128, decoder 256,128, 8 x 2048";
+      "the shipped model's network (its last stage): encoder 16,32,64,128,192,256 from a full-resolution first "
+      "map, RGB + missing-data mask input, global 512, point MLP 64,128, decoder 256,128, mirror features, 8 x 2048";
   shipped.sdf.encoder_channels = {16, 32, 64, 128, 192, 256};
   shipped.sdf.first_stride = 1;
   shipped.sdf.extra_convs = 0;
   shipped.sdf.global_features = 512;
   shipped.sdf.point_mlp = {64, 128};
   shipped.sdf.decoder = {256, 128};
+  shipped.sdf.input_channels = 4;
+  shipped.sdf.mirror_features = true;
   out.push_back(shipped);
   TrainBenchConfig disn = shipped;
   disn.name = "disn";
   disn.sdf.first_stride = 2;
+  disn.sdf.input_channels = 3;
+  disn.sdf.mirror_features = false;
   disn.description =
       "DISN-size: encoder 32,64,128,256,256, global 512, point MLP 64,256,512, decoder 512,256, 8 x 2048";
   disn.sdf.encoder_channels = {32, 64, 128, 256, 256};

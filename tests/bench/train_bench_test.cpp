@@ -19,6 +19,11 @@ TEST_CASE("train bench configurations: shipped, disn and pose, found by name") {
   CHECK(all[2].pose);
   CHECK(all[2].batch == 16);
   CHECK(all[1].sdf.first_stride == 2);
+  // `shipped` is the shipped model's last-stage network (mask channel, mirror features); `disn` is DISN's (RGB).
+  CHECK(all[0].sdf.input_channels == 4);
+  CHECK(all[0].sdf.mirror_features);
+  CHECK(all[1].sdf.input_channels == 3);
+  CHECK_FALSE(all[1].sdf.mirror_features);
   CHECK(TrainBenchSettings().configs.size() == 3);
   CHECK(TrainBenchSettings().threads == std::vector<int>{1, 2});
   REQUIRE(find_train_bench_config("disn").has_value());
