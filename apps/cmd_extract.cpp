@@ -31,12 +31,6 @@ struct Opts {
   bool split_given = false, format_given = false;
 };
 
-bool is_mesh_path(const std::string& path) {
-  std::string e = fs::path(path).extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return e == ".obj" || e == ".ply" || e == ".off" || e == ".stl";
-}
-
 struct Extracted {
   Mesh mesh;
   long evaluations = 0;
@@ -95,7 +89,7 @@ int run(const Opts& o) {
     if (o.split_given || o.format_given)
       throw InvalidInput(std::string(o.split_given ? "--split" : "--format") +
                          " applies to a dataset folder, not to one grid (the format follows -o's extension)");
-    if (!is_mesh_path(o.out))
+    if (!is_mesh_out_path(o.out))
       throw InvalidInput("-o " + o.out + ": one grid makes one mesh: give a .obj, .ply, .off or .stl path");
     const Extracted e = extract_grid(o.input, o);
     write_mesh(o.out, e.mesh);
@@ -107,7 +101,7 @@ int run(const Opts& o) {
     return kOk;
   }
   if (!fs::is_directory(o.input)) throw InvalidInput(o.input + ": no such grid file or dataset folder");
-  if (is_mesh_path(o.out))
+  if (is_mesh_out_path(o.out))
     throw InvalidInput("-o " + o.out + ": a dataset makes one mesh per shape: give a folder, not a mesh path");
   // The shapes: a split of the dataset, or every <category>/<shape>/sdf.vdb below it.
   std::vector<std::string> ids;
@@ -186,7 +180,7 @@ std::function<int()> setup_extract(CLI::App& app) {
   CLI::Option* split_opt = app.add_option("--split", o->split, "dataset: only the shapes of this split (a name looked up as SDF/NAME.lst, or a list file)");
   CLI::Option* format_opt = app.add_option("--format", o->format, "dataset: mesh format of the files written (obj, ply, off, stl)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"obj", "ply", "off", "stl"}));
+      ->check(CLI::IsMember(kMeshOutExtensions));
   app.add_flag("--json", o->json, "print JSON on stdout (one grid: the mesh's figures; dataset: every item and the failures)");
   return [o, split_opt, format_opt] {
     o->split_given = split_opt->count() > 0;

@@ -33,13 +33,6 @@ bool is_image_path(const std::string& p) {
   return std::find(kImageExtensions.begin(), kImageExtensions.end(), e) != kImageExtensions.end();
 }
 
-const std::vector<std::string> kMeshOutExtensions = {"obj", "ply", "off", "stl"};
-
-bool is_mesh_out_path(const std::string& p) {
-  const std::string e = extension_of(p);
-  return std::find(kMeshOutExtensions.begin(), kMeshOutExtensions.end(), e) != kMeshOutExtensions.end();
-}
-
 /// IMAGE, a folder of images (sorted, not recursive; *_mask.*, *.mask.* and *.preview.* files skipped), or a list file
 /// (one path per line, relative to the list's folder).
 std::vector<std::string> collect_inputs(const std::string& input) {

@@ -43,6 +43,11 @@ CLI::Validator in_range(double lo, double hi);
 /// otherwise.
 std::pair<double, double> parse_positive_range(const std::string& text, const std::string& what);
 
+/// Mesh formats the commands write (core/mesh_io.h write_mesh), as extensions without the dot.
+extern const std::vector<std::string> kMeshOutExtensions;
+/// True when `path` ends in one of kMeshOutExtensions (case-insensitive): a mesh file rather than a folder.
+bool is_mesh_out_path(const std::string& path);
+
 /// True when stderr is a terminal (progress bars are drawn only then).
 bool stderr_is_tty();
 

@@ -1,6 +1,7 @@
 // `sdfkit`: parse the sub-command, run it, turn every error into one line and the contract's exit code.
 #include "apps/command.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "nets/comm.h"
 #include "nets/denormals.h"
 
@@ -29,6 +30,13 @@ std::vector<Command>& registry() {
 bool register_command(Command command) {
   registry().push_back(std::move(command));
   return true;
+}
+
+const std::vector<std::string> kMeshOutExtensions = {"obj", "ply", "off", "stl"};
+
+bool is_mesh_out_path(const std::string& path) {
+  const std::string e = extension_of(path);
+  return std::find(kMeshOutExtensions.begin(), kMeshOutExtensions.end(), e) != kMeshOutExtensions.end();
 }
 
 bool stderr_is_tty() { return ::isatty(STDERR_FILENO) == 1; }
