@@ -5,6 +5,7 @@
 #include "core/json.h"
 #include "nets/comm.h"
 #include "nets/sdf_train.h"
+#include "recon/framing.h"
 
 #include <cstdio>
 #include <iostream>
@@ -109,6 +110,17 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   app.add_option("--zoom-range", o->zoom_range,
                  "MIN,MAX: range of the zoom factor (log-uniform; lowered where the object would leave the frame)")
       ->capture_default_str();
+  // The reframing targets recon's framing of real inputs, so that training shows the network what recon gives it.
+  const TrainingFraming framing;
+  s.reframe.extent = framing.extent;
+  s.reframe.centre_dx = framing.centre_dx;
+  s.reframe.centre_dy = framing.centre_dy;
+  app.add_option("--aug-reframe", s.reframe.prob,
+                 "probability of reframing a training image as recon frames a photo (the object's box to 0.67 of "
+                 "the image, its centre at the renders' median place), after the zoom; the camera follows exactly, "
+                 "its principal point leaving the image centre, so that the network meets reframed inputs; 0 = off")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
   app.add_option("--occlusion", o->occlusion,
                  "occlusion augmentation (the occlusion paper's protocol): none; half (the left or right half of the "
                  "object's box removed); rect (a rectangle of 0.25-0.5 of the image side on the object); mixed (half "

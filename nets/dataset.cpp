@@ -343,32 +343,44 @@ Json ZoomAugmentSettings::to_json() const {
   return j;
 }
 
-namespace {
-
-
-}  // namespace
-
-double max_zoom_inside(const Eigen::Ref<const Eigen::VectorXf>& image, int size) {
-  require(size > 2 && image.size() == 3L * size * size, "zoom: image is not 3 x " + std::to_string(size) + "^2");
+InkBox ink_box(const Eigen::Ref<const Eigen::VectorXf>& image, int size) {
+  require(size > 0 && image.size() == 3L * size * size, "ink box: image is not 3 x " + std::to_string(size) + "^2");
   const Eigen::Index plane = static_cast<Eigen::Index>(size) * size;
-  const double c = 0.5 * size;
-  double r = 0;  // farthest pixel edge of the object from the centre, in pixels (max norm)
+  int x0 = size, y0 = size, x1 = -1, y1 = -1;
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x) {
       const Eigen::Index i = static_cast<Eigen::Index>(y) * size + x;
       if (!is_ink(image[i], image[plane + i], image[2 * plane + i])) continue;
-      r = std::max({r, std::abs(x + 0.5 - c) + 0.5, std::abs(y + 0.5 - c) + 0.5});
+      x0 = std::min(x0, x);
+      x1 = std::max(x1, x);
+      y0 = std::min(y0, y);
+      y1 = std::max(y1, y);
     }
-  return r > 0 ? (c - 1.0) / r : std::numeric_limits<double>::infinity();
+  InkBox box;
+  if (x1 < 0) return box;
+  box = {double(x0), double(y0), double(x1 + 1), double(y1 + 1), false};
+  return box;
 }
 
-Eigen::VectorXf zoom_image(const Eigen::Ref<const Eigen::VectorXf>& image, int size, double k) {
+double max_zoom_inside(const Eigen::Ref<const Eigen::VectorXf>& image, int size) {
   require(size > 2 && image.size() == 3L * size * size, "zoom: image is not 3 x " + std::to_string(size) + "^2");
-  require(std::isfinite(k) && k > 0, "zoom: the magnification must be positive");
-  const Eigen::Index plane = static_cast<Eigen::Index>(size) * size;
+  const InkBox box = ink_box(image, size);
+  if (box.empty) return std::numeric_limits<double>::infinity();
+  // Farthest pixel edge of the object from the centre, in pixels (max norm).
   const double c = 0.5 * size;
+  const double r = std::max({c - box.x0, box.x1 - c, c - box.y0, box.y1 - c});
+  return (c - 1.0) / r;
+}
+
+Eigen::VectorXf resample_similarity(const Eigen::Ref<const Eigen::VectorXf>& image, int size, double k, double mx,
+                                    double my, double dx, double dy) {
+  require(size > 2 && image.size() == 3L * size * size, "resample: image is not 3 x " + std::to_string(size) + "^2");
+  require(std::isfinite(k) && k > 0, "resample: the magnification must be positive");
+  require(std::isfinite(mx) && std::isfinite(my) && std::isfinite(dx) && std::isfinite(dy),
+          "resample: the centres must be finite");
+  const Eigen::Index plane = static_cast<Eigen::Index>(size) * size;
   Eigen::VectorXf out(image.size());
-  // Source value at continuous pixel coordinates (u, v) (pixel centres at integers), white outside the image.
+  // Source value at integer pixel (x, y), white outside the image.
   const auto at = [&](const float* ch, int x, int y) -> float {
     return (x < 0 || y < 0 || x >= size || y >= size) ? kNetBackground : ch[static_cast<Eigen::Index>(y) * size + x];
   };
@@ -386,7 +398,8 @@ Eigen::VectorXf zoom_image(const Eigen::Ref<const Eigen::VectorXf>& image, int s
         for (int sy = 0; sy < n; ++sy)
           for (int sx = 0; sx < n; ++sx) {
             const double ox = sub[sx], oy = sub[sy];
-            const double u = c + (x + 0.5 + ox - c) / k - 0.5, v = c + (y + 0.5 + oy - c) / k - 0.5;
+            // Continuous source coordinates with pixel centres at integers.
+            const double u = mx + (x + 0.5 + ox - dx) / k - 0.5, v = my + (y + 0.5 + oy - dy) / k - 0.5;
             const double fu = std::floor(u), fv = std::floor(v);
             const int x0 = static_cast<int>(std::max(-2.0, std::min(fu, double(size) + 1)));
             const int y0 = static_cast<int>(std::max(-2.0, std::min(fv, double(size) + 1)));
@@ -398,6 +411,13 @@ Eigen::VectorXf zoom_image(const Eigen::Ref<const Eigen::VectorXf>& image, int s
       }
   }
   return out;
+}
+
+Eigen::VectorXf zoom_image(const Eigen::Ref<const Eigen::VectorXf>& image, int size, double k) {
+  require(size > 2 && image.size() == 3L * size * size, "zoom: image is not 3 x " + std::to_string(size) + "^2");
+  require(std::isfinite(k) && k > 0, "zoom: the magnification must be positive");
+  const double c = 0.5 * size;
+  return resample_similarity(image, size, k, c, c, c, c);
 }
 
 void zoom_images(MatrixXfR& images, std::vector<Camera>& cameras, const ZoomAugmentSettings& z, uint64_t seed,
@@ -432,6 +452,52 @@ void zoom_images(MatrixXfR& images, std::vector<Camera>& cameras, const ZoomAugm
       cam.K(1, 2) = k * cam.K(1, 2) + (1 - k) * cy;
     }
     if (applied) (*applied)[static_cast<size_t>(b)] = k;
+  });
+}
+
+Json ReframeAugmentSettings::to_json() const {
+  return {{"prob", prob}, {"extent", extent}, {"centre_dx", centre_dx}, {"centre_dy", centre_dy}};
+}
+
+void ReframeAugmentSettings::validate() const {
+  require(prob >= 0 && prob <= 1, "reframe augmentation: the probability must be in [0, 1]");
+  require(std::isfinite(extent) && extent > 0 && extent <= 1, "reframe augmentation: the extent must be in (0, 1]");
+  require(std::abs(centre_dx) <= 0.5 && std::abs(centre_dy) <= 0.5,
+          "reframe augmentation: the centre offsets must be in [-0.5, 0.5]");
+}
+
+void reframe_images(MatrixXfR& images, std::vector<Camera>& cameras, const ReframeAugmentSettings& r, uint64_t seed,
+                    uint64_t stream, std::vector<double>* applied, std::vector<char>* reframed) {
+  r.validate();
+  require(cameras.size() == static_cast<size_t>(images.rows()),
+          "reframe augmentation: " + std::to_string(cameras.size()) + " cameras for " + std::to_string(images.rows()) +
+              " images");
+  if (applied) applied->assign(cameras.size(), 1.0);
+  if (reframed) reframed->assign(cameras.size(), 0);
+  if (!r.enabled() || images.rows() == 0) return;
+  const int S = square_side(images.cols(), "reframe augmentation");
+  tbb::parallel_for(Eigen::Index(0), images.rows(), [&](Eigen::Index b) {
+    Rng rng = Rng::derived(seed ^ 0x7ef7a3e0ULL, stream + static_cast<uint64_t>(b));
+    if (!(rng.uniform() < r.prob)) return;
+    const Eigen::VectorXf row = images.row(b).transpose();
+    const InkBox box = ink_box(row, S);
+    if (box.empty) return;
+    // The object's box centre m goes to d, its longer side L to extent * S.
+    const double mx = 0.5 * (box.x0 + box.x1), my = 0.5 * (box.y0 + box.y1);
+    const double k = r.extent * S / std::max(box.x1 - box.x0, box.y1 - box.y0);
+    const double dx = (0.5 + r.centre_dx) * S, dy = (0.5 + r.centre_dy) * S;
+    images.row(b) = resample_similarity(row, S, k, mx, my, dx, dy).transpose();
+    // In the camera's pixels (the image spans its grid): p' = d + k (p - m), so f and skew scale by k and the
+    // principal point moves through the same map.
+    Camera& cam = cameras[static_cast<size_t>(b)];
+    const double sx = static_cast<double>(cam.width) / S, sy = static_cast<double>(cam.height) / S;
+    cam.K(0, 0) *= k;
+    cam.K(1, 1) *= k;
+    cam.K(0, 1) *= k;
+    cam.K(0, 2) = dx * sx + k * (cam.K(0, 2) - mx * sx);
+    cam.K(1, 2) = dy * sy + k * (cam.K(1, 2) - my * sy);
+    if (applied) (*applied)[static_cast<size_t>(b)] = k;
+    if (reframed) (*reframed)[static_cast<size_t>(b)] = 1;
   });
 }
 

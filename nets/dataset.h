@@ -207,6 +207,48 @@ Eigen::VectorXf zoom_image(const Eigen::Ref<const Eigen::VectorXf>& image, int s
 /// pixel inside its border; +infinity for an all-white image.
 double max_zoom_inside(const Eigen::Ref<const Eigen::VectorXf>& image, int size);
 
+/// Box of an image's object (its is_ink pixels) in pixel-edge coordinates (pixel x spans [x, x + 1)).
+struct InkBox {
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  bool empty = true;  ///< no object pixel (all-white image)
+};
+/// The box of the is_ink pixels of one image (3 * S * S channels-first values).
+InkBox ink_box(const Eigen::Ref<const Eigen::VectorXf>& image, int size);
+
+/// One image (3 * S * S channels-first values, white background) mapped by the similarity q -> d + k (q - m)
+/// (pixel-edge coordinates, image y down): source point m lands on d, magnified by k. Bilinear, 2 x 2 samples per
+/// pixel when shrinking, white outside the source; zoom_image is the case m = d = the image centre.
+Eigen::VectorXf resample_similarity(const Eigen::Ref<const Eigen::VectorXf>& image, int size, double k, double mx,
+                                    double my, double dx, double dy);
+
+/// Reframing augmentation (`train sdf --aug-reframe`): the framing recon gives a real input (recon/framing.h),
+/// applied to training images so that the network meets it. With probability `prob` an image is mapped by the
+/// similarity that brings its object's box (ink_box) to a longer side of `extent` image sides, the box centre at
+/// ((0.5 + centre_dx) S, (0.5 + centre_dy) S); the camera follows exactly (f and skew times k, the principal point
+/// through the same map, in the camera's pixels), so every object point projects where the new image shows it. The
+/// principal point then leaves the image centre: the SDF network learns to project with off-centre cameras, as
+/// recon's reframed photos hand them over. All-white images stay. Image b draws its coin from
+/// Rng::derived(seed, stream + b) only.
+struct ReframeAugmentSettings {
+  double prob = 0;          ///< probability of reframing an image, [0, 1]
+  double extent = 0.67;     ///< the object's box longer side / image side, (0, 1]
+  double centre_dx = 0;     ///< box centre - image centre, image sides, x right, [-0.5, 0.5]
+  double centre_dy = 0.033; ///< same, y down
+
+  [[nodiscard]] bool enabled() const { return prob > 0; }
+  [[nodiscard]] Json to_json() const;
+  /// Throws InvalidInput naming the setting out of range.
+  void validate() const;
+};
+
+/// Reframe B x (3 * S * S) rows in place and their cameras with them (see ReframeAugmentSettings); the magnification
+/// applied to each image in `applied` when not null (1 and untouched = left as it was; a reframed image may also get
+/// k = 1). `reframed` (optional) marks the images that were. Throws InvalidInput on settings out of range, rows that
+/// are not 3 square channels, or a camera count other than the row count.
+void reframe_images(MatrixXfR& images, std::vector<Camera>& cameras, const ReframeAugmentSettings& settings,
+                    uint64_t seed, uint64_t stream, std::vector<double>* applied = nullptr,
+                    std::vector<char>* reframed = nullptr);
+
 /// Occlusion augmentation (the occlusion paper's protocol, `train sdf --occlusion`): parts of the object's image are
 /// missing data. A removed pixel becomes the white background in RGB and 1 in the image's missing-data mask, the
 /// fourth input channel of an RGB + mask network (SdfNetConfig::input_channels; an RGB network sees only the white,

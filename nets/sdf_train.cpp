@@ -213,6 +213,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   require(st.camera_jitter_deg >= 0 && st.camera_jitter_deg <= 180, "train sdf: --camera-jitter must be in [0, 180]");
   require(st.zoom.camera == ZoomAugmentSettings::CameraFollow::kFocal,
           "train sdf: the zoom augmentation must move the intrinsics (the network projects with the camera)");
+  st.reframe.validate();
   const SdfAdversarialSettings& adv = st.adversarial;
   if (adv.enabled()) {
     require(Comm::world().size() == 1, "train sdf: --adversarial runs in one process (no MPI ranks)");
@@ -268,6 +269,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
                            {"seed", st.seed},          {"max_shapes", st.max_shapes},   {"steps", st.steps},
                            {"train_shapes", train.size()}, {"init", st.init},
                            {"camera_jitter_deg", st.camera_jitter_deg}, {"zoom", st.zoom.to_json()},
+                           {"reframe", st.reframe.to_json()},
                            {"occlusion", st.occlusion.to_json()},
                            {"adversarial", adv.to_json()}};
   if (st.resume && fs::exists(st.out)) {
@@ -365,6 +367,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     batch = sampler.batch(at, i0, i1);
     const uint64_t stream = static_cast<uint64_t>(at) * st.batch + i0;
     zoom_images(batch.images, batch.cameras, st.zoom, st.seed, stream);
+    reframe_images(batch.images, batch.cameras, st.reframe, st.seed, stream);
     if (st.adversarial.enabled()) {
       const Eigen::Index n = batch.images.cols() / 3;
       l.silhouettes.resize(batch.images.rows(), n);

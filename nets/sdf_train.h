@@ -71,7 +71,11 @@ struct SdfTrainSettings {
     z.camera = ZoomAugmentSettings::CameraFollow::kFocal;
     return z;
   }();
-  /// Occlusion augmentation (nets/dataset.h, off by default), applied after the zoom. With an RGB + mask network
+  /// Reframing augmentation (nets/dataset.h, off by default), applied after the zoom: images brought to the framing
+  /// recon gives real inputs (the object's box at a fixed size and place, the principal point moved with it), so
+  /// that the network meets off-centre cameras. Seeded per (seed, item).
+  ReframeAugmentSettings reframe;
+  /// Occlusion augmentation (nets/dataset.h, off by default), applied after the zoom and the reframing. With an RGB + mask network
   /// (net.input_channels = 4) the network also reads the removed pixels' mask; an RGB network sees white there.
   OcclusionAugmentSettings occlusion;
   SdfAdversarialSettings adversarial;  ///< off by default; single-process training only

@@ -430,6 +430,140 @@ TEST_CASE("zoom_images, focal mode: the zoomed image is the render through the z
   CHECK(z.to_json().at("camera") == "focal");
 }
 
+TEST_CASE("ink_box: the object's pixel edges, empty for a white image, and the zoom limit agrees with it") {
+  const int S = 40;
+  Eigen::VectorXf img = Eigen::VectorXf::Ones(3 * S * S);
+  CHECK(ink_box(img, S).empty);
+  img[2 * S * S + 7 * S + 30] = 0.9f;  // blue channel only, pixel (30, 7)
+  img[12 * S + 4] = 0.5f;              // red channel, pixel (4, 12)
+  img[S * S + 20 * S + 10] = 0.96f;    // within the ink threshold: background
+  const InkBox b = ink_box(img, S);
+  REQUIRE(!b.empty);
+  CHECK(b.x0 == 4);
+  CHECK(b.x1 == 31);
+  CHECK(b.y0 == 7);
+  CHECK(b.y1 == 13);
+  // Farthest edge from the centre 20: x0 = 4 (16 px), so (20 - 1) / 16.
+  CHECK(max_zoom_inside(img, S) == doctest::Approx(19.0 / 16.0));
+  CHECK_THROWS_AS(ink_box(img, S + 1), InvalidInput);
+}
+
+TEST_CASE("reframe_images: the object's box lands at the set size and place, the render through the new camera agrees") {
+  const int S = 64;
+  const Mesh box = make_box(Vec3(-0.45, -0.3, -0.2), Vec3(0.35, 0.4, 0.3));
+  // A small object off the image centre: far camera, principal point moved.
+  Camera cam = look_at(35, 20, 4.0, S, S);
+  cam.K(0, 2) -= 9.0;
+  cam.K(1, 2) += 6.0;
+  MatrixXfR img(1, 3 * S * S);
+  img.row(0) = render_row(box, cam).transpose();
+  const MatrixXfR before = img;
+  const InkBox b0 = ink_box(before.row(0).transpose(), S);
+  REQUIRE(!b0.empty);
+  std::vector<Camera> cams = {cam};
+  ReframeAugmentSettings r;
+  r.prob = 1;
+  r.extent = 0.67;
+  r.centre_dx = 0.05;
+  r.centre_dy = 0.033;
+  std::vector<double> applied;
+  std::vector<char> reframed;
+  reframe_images(img, cams, r, 3, 0, &applied, &reframed);
+  REQUIRE(reframed[0] == 1);
+  const double L0 = std::max(b0.x1 - b0.x0, b0.y1 - b0.y0);
+  const double k = applied[0];
+  CHECK(k == doctest::Approx(r.extent * S / L0).epsilon(1e-12));
+  CHECK(k > 1.2);  // the object was small: the test magnifies
+  // Closed form: every point projects to d + k (q - m), m the old box centre, d the set place; R, t untouched.
+  const double mx = 0.5 * (b0.x0 + b0.x1), my = 0.5 * (b0.y0 + b0.y1);
+  const double dx = (0.5 + r.centre_dx) * S, dy = (0.5 + r.centre_dy) * S;
+  Points X(3, 3);
+  X << 0.1, 0.2, -0.3, -0.4, 0.0, 0.25, 0.3, -0.2, 0.1;
+  const Pixels q = project_points(cam, X), q2 = project_points(cams[0], X);
+  for (int i = 0; i < 3; ++i) {
+    CHECK(q2(i, 0) == doctest::Approx(dx + k * (q(i, 0) - mx)).epsilon(1e-12));
+    CHECK(q2(i, 1) == doctest::Approx(dy + k * (q(i, 1) - my)).epsilon(1e-12));
+  }
+  CHECK((cams[0].R - cam.R).norm() == 0.0);
+  CHECK((cams[0].t - cam.t).norm() == 0.0);
+  // The new image's object box: longer side extent * S and centre d, to a pixel (edge pixels may fall either side).
+  const InkBox b1 = ink_box(img.row(0).transpose(), S);
+  CHECK(std::max(b1.x1 - b1.x0, b1.y1 - b1.y0) == doctest::Approx(r.extent * S).epsilon(2.0 / (r.extent * S)));
+  CHECK(std::abs(0.5 * (b1.x0 + b1.x1) - dx) <= 1.0);
+  CHECK(std::abs(0.5 * (b1.y0 + b1.y1) - dy) <= 1.0);
+  // Independent check: the render through the new camera is the reframed image up to resampling at the edges.
+  const Eigen::VectorXf truth = render_row(box, cams[0]);
+  const double err = (img.row(0).transpose() - truth).cwiseAbs().mean();
+  const double unframed = (before.row(0).transpose() - truth).cwiseAbs().mean();
+  CHECK(err < 0.15 * unframed);
+  // A camera on a finer pixel grid than the network image (width 2 S) moves its principal point in its own pixels.
+  Camera fine = cam;
+  fine.width = fine.height = 2 * S;
+  fine.K(0, 0) *= 2;
+  fine.K(1, 1) *= 2;
+  fine.K(0, 2) *= 2;
+  fine.K(1, 2) *= 2;
+  std::vector<Camera> cf = {fine};
+  MatrixXfR img2 = before;
+  reframe_images(img2, cf, r, 3, 0);
+  CHECK(cf[0].K(0, 2) == doctest::Approx(2 * cams[0].K(0, 2)).epsilon(1e-12));
+  CHECK(cf[0].K(1, 2) == doctest::Approx(2 * cams[0].K(1, 2)).epsilon(1e-12));
+  CHECK(r.to_json().dump() == R"({"centre_dx":0.05,"centre_dy":0.033,"extent":0.67,"prob":1.0})");
+}
+
+TEST_CASE("reframe_images: seeded, thread-independent, off and all-white images untouched, bad settings refused") {
+  const int S = 21, B = 12;
+  MatrixXfR src(B, 3 * S * S);
+  for (int b = 0; b < B; ++b) src.row(b) = centred_square(S, 1 + b % 4).transpose();
+  src.row(5).setOnes();
+  std::vector<Camera> cams0;
+  for (int b = 0; b < B; ++b) cams0.push_back(look_at(30.0 * b, 25, 2.5, S, S));
+  ReframeAugmentSettings r;
+  r.prob = 0.6;
+  MatrixXfR p = src, q = src;
+  std::vector<Camera> cp = cams0, cq = cams0;
+  std::vector<double> kp, kq;
+  std::vector<char> fp, fq;
+  reframe_images(p, cp, r, 5, 40, &kp, &fp);
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    reframe_images(q, cq, r, 5, 40, &kq, &fq);
+  }
+  CHECK((p.array() == q.array()).all());
+  CHECK(kp == kq);
+  CHECK(fp == fq);
+  CHECK(fp[5] == 0);  // all white: nothing to frame
+  int changed = 0;
+  for (int b = 0; b < B; ++b) {
+    if (!fp[static_cast<size_t>(b)]) {
+      CHECK((p.row(b).array() == src.row(b).array()).all());
+      CHECK((cp[b].K - cams0[b].K).norm() == 0.0);
+      continue;
+    }
+    ++changed;
+    CHECK((p.row(b).array() != src.row(b).array()).any());
+  }
+  CHECK(changed > 0);
+  CHECK(changed < B - 1);
+  // Another seed draws other coins; off changes nothing.
+  std::vector<char> f2;
+  MatrixXfR p2 = src;
+  std::vector<Camera> c2 = cams0;
+  reframe_images(p2, c2, r, 6, 40, nullptr, &f2);
+  CHECK(f2 != fp);
+  MatrixXfR x = src;
+  std::vector<Camera> cx = cams0;
+  reframe_images(x, cx, ReframeAugmentSettings{}, 5, 0);
+  CHECK((x.array() == src.array()).all());
+  for (const auto& [field, value] : std::vector<std::pair<int, double>>{{0, 1.5}, {1, 0.0}, {1, 1.2}, {2, 0.7}}) {
+    ReframeAugmentSettings bad = r;
+    (field == 0 ? bad.prob : field == 1 ? bad.extent : bad.centre_dx) = value;
+    CHECK_THROWS_AS(reframe_images(x, cx, bad, 1, 0), InvalidInput);
+  }
+  cx.pop_back();
+  CHECK_THROWS_AS(reframe_images(x, cx, r, 1, 0), InvalidInput);
+}
+
 TEST_CASE("occlusion augmentation: half removes one side of the object's box, white and masked, seeded") {
   const int S = 40;
   // A grey object spanning columns 10..29 and rows 12..27 on white.

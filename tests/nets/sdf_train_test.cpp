@@ -346,6 +346,27 @@ TEST_CASE("zoomed training: recorded in the model, changes the training, resumes
   fs::remove_all(root);
 }
 
+TEST_CASE("reframed training: recorded in the model, changes the training, resumes bit for bit") {
+  const fs::path root = make_torus_dataset("sdf_train_reframe");
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
+  st.steps = 6;
+  st.out = (root / "plain.ckpt").string();
+  train_sdf(st);
+  st.reframe.prob = 1.0;
+  st.reframe.extent = 0.5;
+  straight_and_split(st, root, "r");
+  CHECK(params(root, "r_straight.ckpt") == params(root, "r_split.ckpt"));
+  CHECK(params(root, "r_straight.ckpt") != params(root, "plain.ckpt"));
+  const Json training = load_checkpoint((root / "r_straight.ckpt").string()).header.at("training");
+  CHECK(training.at("reframe").at("prob") == 1.0);
+  CHECK(training.at("reframe").at("extent") == 0.5);
+  st.reframe.extent = 1.5;
+  st.out = (root / "bad.ckpt").string();
+  CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  CHECK(!fs::exists(st.out));
+  fs::remove_all(root);
+}
+
 TEST_CASE("occluded training with a mask channel: recorded, starts from an RGB model, resumes bit for bit") {
   const fs::path root = make_torus_dataset("sdf_train_occlusion");
   SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
