@@ -54,6 +54,11 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                  "object's size, as recon needs for reframed photos (1 = the views as rendered)")
       ->capture_default_str()
       ->check(in_range(0.25, 4.0));
+  app.add_flag("--reframe", o->e.reframe,
+               "then frame every view as recon frames a photo (the object's box to 0.67 of the image at the renders' "
+               "median place; the true distance divided by the magnification, its principal point moved with the "
+               "crop): how well the model reads recon's reframed inputs (a model without --centre-head answers with "
+               "the image centre)");
   app.add_flag("--json", o->json, "print JSON (overall + per category) instead of text");
   return [o] {
     const auto t0 = std::chrono::steady_clock::now();
@@ -98,7 +103,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       Json j = scores(all);
       j.update({{"model", o->model}, {"data", o->data}, {"split", o->split}, {"shapes", data.size()},
                 {"azimuth_bins", net->settings().azimuth_bins}, {"flip_check", o->flip_check},
-                {"points", o->e.points}, {"zoom", o->e.zoom}, {"seconds", seconds}, {"per_category", cats}});
+                {"points", o->e.points}, {"zoom", o->e.zoom}, {"reframe", o->e.reframe}, {"seconds", seconds}, {"per_category", cats}});
       if (o->symmetry) {
         j["symmetry_tol"] = o->symmetry_tol;
         j["symmetries"] = symmetries;

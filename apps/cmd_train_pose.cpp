@@ -6,6 +6,7 @@
 #include "core/mesh_io.h"
 #include "nets/comm.h"
 #include "nets/pose_train.h"
+#include "recon/framing.h"
 #include "sdf/prepare.h"
 #include "sdf/symmetry.h"
 
@@ -98,6 +99,23 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   app.add_option("--zoom-range", o->zoom_range,
                  "MIN,MAX: range of the zoom factor (log-uniform; lowered where the object would leave the frame)")
       ->capture_default_str();
+  app.add_flag("--centre-head", s.net.centre_head,
+               "add a head that regresses where the object-frame origin appears (the principal point of a cropped "
+               "image; --init may name a model without it: the head then starts at the image centre)");
+  app.add_option("--centre-weight", s.centre_weight, "weight of the centre head's loss")
+      ->capture_default_str()
+      ->check(non_negative());
+  // The reframing targets recon's framing of real inputs (recon/framing.h).
+  const TrainingFraming framing;
+  s.reframe.extent = framing.extent;
+  s.reframe.centre_dx = framing.centre_dx;
+  s.reframe.centre_dy = framing.centre_dy;
+  app.add_option("--aug-reframe", s.reframe.prob,
+                 "probability of reframing a training image as recon frames a photo (the object's box to 0.67 of "
+                 "the image, its centre at the renders' median place), after the zoom: the distance is divided by "
+                 "the magnification and the principal point moves with the crop (needs --centre-head); 0 = off")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
   app.add_option("--seed", s.seed, "seed of the initialisation, of every batch and of the augmentation")
       ->capture_default_str();
   app.add_option("--init", s.init,
@@ -158,6 +176,7 @@ std::function<int()> setup_train_pose(CLI::App& app) {
                     {"total_seconds", r.total_seconds},
                     {"symmetric_shapes", r.symmetric_shapes},
                     {"train_azimuth_ce", r.train_azimuth_ce},
+                    {"train_centre_loss", r.train_centre_loss},
                     {"val", {{"loss", r.val.loss}, {"d3d", r.val.d3d}, {"d2d", r.val.d2d}, {"items", r.val.items}}}};
     if (o->json)
       std::cout << j.dump(2) << '\n';

@@ -456,7 +456,9 @@ void zoom_images(MatrixXfR& images, std::vector<Camera>& cameras, const ZoomAugm
 }
 
 Json ReframeAugmentSettings::to_json() const {
-  return {{"prob", prob}, {"extent", extent}, {"centre_dx", centre_dx}, {"centre_dy", centre_dy}};
+  Json j = {{"prob", prob}, {"extent", extent}, {"centre_dx", centre_dx}, {"centre_dy", centre_dy}};
+  if (camera == ZoomAugmentSettings::CameraFollow::kDistance) j["camera"] = "distance";
+  return j;
 }
 
 void ReframeAugmentSettings::validate() const {
@@ -487,13 +489,17 @@ void reframe_images(MatrixXfR& images, std::vector<Camera>& cameras, const Refra
     const double k = r.extent * S / std::max(box.x1 - box.x0, box.y1 - box.y0);
     const double dx = (0.5 + r.centre_dx) * S, dy = (0.5 + r.centre_dy) * S;
     images.row(b) = resample_similarity(row, S, k, mx, my, dx, dy).transpose();
-    // In the camera's pixels (the image spans its grid): p' = d + k (p - m), so f and skew scale by k and the
-    // principal point moves through the same map.
+    // In the camera's pixels (the image spans its grid): p' = d + k (p - m), so f and skew scale by k (or the
+    // distance by 1 / k) and the principal point moves through the same map.
     Camera& cam = cameras[static_cast<size_t>(b)];
     const double sx = static_cast<double>(cam.width) / S, sy = static_cast<double>(cam.height) / S;
-    cam.K(0, 0) *= k;
-    cam.K(1, 1) *= k;
-    cam.K(0, 1) *= k;
+    if (r.camera == ZoomAugmentSettings::CameraFollow::kDistance) {
+      cam.t.z() /= k;
+    } else {
+      cam.K(0, 0) *= k;
+      cam.K(1, 1) *= k;
+      cam.K(0, 1) *= k;
+    }
     cam.K(0, 2) = dx * sx + k * (cam.K(0, 2) - mx * sx);
     cam.K(1, 2) = dy * sy + k * (cam.K(1, 2) - my * sy);
     if (applied) (*applied)[static_cast<size_t>(b)] = k;

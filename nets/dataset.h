@@ -224,16 +224,19 @@ Eigen::VectorXf resample_similarity(const Eigen::Ref<const Eigen::VectorXf>& ima
 /// Reframing augmentation (`train sdf --aug-reframe`): the framing recon gives a real input (recon/framing.h),
 /// applied to training images so that the network meets it. With probability `prob` an image is mapped by the
 /// similarity that brings its object's box (ink_box) to a longer side of `extent` image sides, the box centre at
-/// ((0.5 + centre_dx) S, (0.5 + centre_dy) S); the camera follows exactly (f and skew times k, the principal point
-/// through the same map, in the camera's pixels), so every object point projects where the new image shows it. The
-/// principal point then leaves the image centre: the SDF network learns to project with off-centre cameras, as
-/// recon's reframed photos hand them over. All-white images stay. Image b draws its coin from
-/// Rng::derived(seed, stream + b) only.
+/// ((0.5 + centre_dx) S, (0.5 + centre_dy) S). The principal point goes through the same map (in the camera's
+/// pixels), so it leaves the image centre as it does in recon's crop of an off-centre object; the magnification k
+/// follows as in ZoomAugmentSettings (`camera`):
+///   - kFocal (the SDF network): f and skew times k; exact, every object point projects where the new image shows it.
+///   - kDistance (the pose estimator, whose intrinsics are DISN's but for the principal point): t.z / k, weak
+///     perspective, exact for the object-frame origin.
+/// All-white images stay. Image b draws its coin from Rng::derived(seed, stream + b) only.
 struct ReframeAugmentSettings {
   double prob = 0;          ///< probability of reframing an image, [0, 1]
   double extent = 0.67;     ///< the object's box longer side / image side, (0, 1]
   double centre_dx = 0;     ///< box centre - image centre, image sides, x right, [-0.5, 0.5]
   double centre_dy = 0.033; ///< same, y down
+  ZoomAugmentSettings::CameraFollow camera = ZoomAugmentSettings::CameraFollow::kFocal;
 
   [[nodiscard]] bool enabled() const { return prob > 0; }
   [[nodiscard]] Json to_json() const;

@@ -16,6 +16,7 @@ Json PoseNetSettings::to_json() const {
             {"distance_min", distance_min},
             {"distance_max", distance_max}};
   if (azimuth_bins > 0) j["azimuth_bins"] = azimuth_bins;  // absent in models without the head
+  if (centre_head) j["centre_head"] = true;                 // same
   return j;
 }
 
@@ -28,6 +29,7 @@ PoseNetSettings PoseNetSettings::from_json(const Json& j) {
     s.distance_min = j.at("distance_min").get<double>();
     s.distance_max = j.at("distance_max").get<double>();
     s.azimuth_bins = j.value("azimuth_bins", 0);
+    s.centre_head = j.value("centre_head", false);
   } catch (const Json::exception& e) {
     throw IoError(std::string("pose network settings: malformed (") + e.what() + ")");
   }
@@ -74,11 +76,18 @@ PoseNet::PoseNet(const PoseNetSettings& settings, bool with_grads) : s_(settings
     az_head_.emplace<Linear<float>>(128, s_.azimuth_bins);
     store_.add(az_head_);
   }
+  if (s_.centre_head) {  // last in the store: a model without it is a prefix (adopt_parameters)
+    centre_head_.emplace<Linear<float>>(s_.feature, 32);
+    centre_head_.add(leaky_relu<float>(kSlope));
+    centre_head_.emplace<Linear<float>>(32, 2);
+    store_.add(centre_head_);
+  }
   store_.allocate(with_grads);
   trunk_.training(with_grads);
   rot_head_.training(with_grads);
   dist_head_.training(with_grads);
   az_head_.training(with_grads);
+  centre_head_.training(with_grads);
 }
 
 void PoseNet::set_flip_check(double margin) {
@@ -91,6 +100,7 @@ double PoseNet::train_step_flops(int batch) const {
   const Shape feat = trunk_.output_shape(in);
   double fwd = trunk_.forward_flops(in) + rot_head_.forward_flops(feat) + dist_head_.forward_flops(feat);
   if (s_.azimuth_bins > 0) fwd += az_head_.forward_flops(feat);
+  if (s_.centre_head) fwd += centre_head_.forward_flops(feat);
   return 3.0 * fwd - trunk_[0].forward_flops(in);  // the image gradient of the first convolution is not computed
 }
 
@@ -107,6 +117,7 @@ void PoseNet::run(const MatrixXfR& images, bool training) {
   rot_head_.training(training);
   dist_head_.training(training);
   az_head_.training(training);
+  centre_head_.training(training);
   x_.resize({images.rows(), 3, S, S});
   // Centre the [0, 1] input.
   Eigen::Map<MatrixXfR>(x_.ptr(), images.rows(), images.cols()) = images.array() - 0.5f;
@@ -114,6 +125,7 @@ void PoseNet::run(const MatrixXfR& images, bool training) {
   rot_head_.forward(feat_, rot_);
   dist_head_.forward(feat_, dist_);
   if (s_.azimuth_bins > 0) az_head_.forward(feat_, az_);
+  if (s_.centre_head) centre_head_.forward(feat_, centre_);
 }
 
 std::pair<double, double> distance_logit_remap(double a, double b, double a2, double b2) {
@@ -131,11 +143,19 @@ void PoseNet::adopt_parameters(const PoseNet& from) {
   PoseNetSettings same = from.s_;
   same.distance_min = s_.distance_min;
   same.distance_max = s_.distance_max;
-  require(same.to_json() == s_.to_json(), "pose net: cannot adopt the parameters of another architecture (" +
-                                              from.s_.to_json().dump() + " vs " + s_.to_json().dump() + ")");
+  same.centre_head = s_.centre_head;
+  require(same.to_json() == s_.to_json() && (s_.centre_head || !from.s_.centre_head),
+          "pose net: cannot adopt the parameters of another architecture (" + from.s_.to_json().dump() + " vs " +
+              s_.to_json().dump() + ")");
   const auto [alpha, beta] = distance_logit_remap(from.s_.distance_min, from.s_.distance_max, s_.distance_min,
                                                   s_.distance_max);
+  // `from`'s parameters are a prefix of this store (the centre head comes last).
   std::copy(from.store_.values.begin(), from.store_.values.end(), store_.values.begin());
+  if (s_.centre_head && !from.s_.centre_head) {
+    const Layer<float>& out = centre_head_[centre_head_.size() - 1];
+    float* c = store_.values.data() + (out.params() - store_.values.data());
+    std::fill(c, c + out.n_params(), 0.0f);
+  }
   // The distance head's last layer (32 -> 1: 32 weights, then the bias) becomes alpha x + beta.
   const Layer<float>& last = dist_head_[dist_head_.size() - 1];
   float* w = store_.values.data() + (last.params() - store_.values.data());
@@ -143,10 +163,14 @@ void PoseNet::adopt_parameters(const PoseNet& from) {
   w[last.n_params() - 1] = static_cast<float>(alpha * w[last.n_params() - 1] + beta);
 }
 
-Camera PoseNet::camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z) const {
+Camera PoseNet::camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z, const float* centre) const {
   Camera cam;
   cam.K = disn_intrinsics(s_.image_size, s_.image_size);
   cam.width = cam.height = s_.image_size;
+  if (centre) {
+    cam.K(0, 2) += cam.K(0, 0) * static_cast<double>(centre[0]);
+    cam.K(1, 2) += cam.K(1, 1) * static_cast<double>(centre[1]);
+  }
   const Vec6T<double> bd = b.cast<double>();
   cam.R = rot6d_to_matrix(bd);
   const double sig = 1.0 / (1.0 + std::exp(-static_cast<double>(z)));
@@ -162,7 +186,7 @@ PosePrediction PoseNet::predict(const MatrixXfR& images) {
     Eigen::Matrix<float, 6, 1> r;
     for (int k = 0; k < 6; ++k) r[k] = rot_[b * 6 + k];
     p.rot6d.push_back(r);
-    const Camera cam = camera_from_outputs(r, dist_[b]);
+    const Camera cam = camera_from_outputs(r, dist_[b], s_.centre_head ? centre_.ptr() + b * 2 : nullptr);
     p.regressed.push_back(cam);
     double shift = 0;
     if (K > 0) {
@@ -218,6 +242,17 @@ double pose_point_loss_modulo(const Eigen::Matrix3d& R, double d, const PointsF&
   }
   if (twin) *twin = arg;
   return best;
+}
+
+Eigen::Vector2d camera_centre_offset(const Camera& cam) {
+  return {(cam.K(0, 2) - 0.5 * cam.width) / cam.K(0, 0), (cam.K(1, 2) - 0.5 * cam.height) / cam.K(1, 1)};
+}
+
+double pose_centre_loss(const Eigen::Vector2d& o, const Camera& truth, Eigen::Vector2d* grad) {
+  const double d2 = truth.t.squaredNorm();
+  const Eigen::Vector2d e = o - camera_centre_offset(truth);
+  if (grad) *grad = 2.0 * d2 * e;
+  return d2 * e.squaredNorm();
 }
 
 double camera_azimuth(const Camera& cam) { return look_at_params(cam).azimuth_deg; }
@@ -287,7 +322,7 @@ double azimuth_flip_shift(const std::vector<float>& prob, double azimuth_deg, do
 
 double PoseNet::forward_backward(const MatrixXfR& images, const std::vector<PointsF>& points,
                                  const std::vector<Camera>& truth, double weight, const PoseLossOptions& options,
-                                 double* azimuth_ce) {
+                                 double* azimuth_ce, double* centre_loss) {
   require(store_.has_grads(), "pose net: forward_backward needs a model built with gradients");
   const Eigen::Index B = images.rows();
   require(static_cast<Eigen::Index>(points.size()) == B && static_cast<Eigen::Index>(truth.size()) == B,
@@ -297,6 +332,8 @@ double PoseNet::forward_backward(const MatrixXfR& images, const std::vector<Poin
   require(options.azimuth_weight >= 0 && std::isfinite(options.azimuth_weight),
           "pose net: the azimuth weight must be >= 0");
   require(options.azimuth_weight == 0 || s_.azimuth_bins > 0, "pose net: an azimuth weight needs the azimuth head");
+  require(options.centre_weight >= 0 && std::isfinite(options.centre_weight),
+          "pose net: the centre weight must be >= 0");
   run(images, true);
   Tensor drot(rot_.shape), ddist(dist_.shape);
   double total = 0, ce_total = 0;
@@ -306,6 +343,9 @@ double PoseNet::forward_backward(const MatrixXfR& images, const std::vector<Poin
   const int K = s_.azimuth_bins;
   Tensor daz;
   if (K > 0) daz.assign(az_.shape, 0.0f);  // an untrained head (weight 0) gets no gradient
+  Tensor dcentre;
+  double centre_total = 0;
+  if (s_.centre_head) dcentre.assign(centre_.shape, 0.0f);
   for (Eigen::Index b = 0; b < B; ++b) {
     const std::vector<Mat3>& g = options.symmetries ? (*options.symmetries)[static_cast<size_t>(b)] : kNone;
     Vec6T<double> r;
@@ -332,6 +372,13 @@ double PoseNet::forward_backward(const MatrixXfR& images, const std::vector<Poin
       ce_total += softmax_cross_entropy(az_.ptr() + b * K, y.data(), K, dz.data(), nullptr);
       for (int k = 0; k < K; ++k) daz[b * K + k] = static_cast<float>(dz[static_cast<size_t>(k)] * options.azimuth_weight * scale);
     }
+    if (s_.centre_head) {
+      Eigen::Vector2d g;
+      const Eigen::Vector2d o(static_cast<double>(centre_[b * 2]), static_cast<double>(centre_[b * 2 + 1]));
+      centre_total += pose_centre_loss(o, truth[b], &g);
+      dcentre[b * 2] = static_cast<float>(g[0] * options.centre_weight * scale);
+      dcentre[b * 2 + 1] = static_cast<float>(g[1] * options.centre_weight * scale);
+    }
   }
   Tensor dfeat_r, dfeat_d;
   rot_head_.backward(feat_, rot_, drot, &dfeat_r);
@@ -342,8 +389,14 @@ double PoseNet::forward_backward(const MatrixXfR& images, const std::vector<Poin
     az_head_.backward(feat_, az_, daz, &dfeat_a);
     for (int64_t i = 0; i < dfeat_r.size(); ++i) dfeat_r[i] += dfeat_a[i];
   }
+  if (s_.centre_head) {
+    Tensor dfeat_c;
+    centre_head_.backward(feat_, centre_, dcentre, &dfeat_c);
+    for (int64_t i = 0; i < dfeat_r.size(); ++i) dfeat_r[i] += dfeat_c[i];
+  }
   trunk_.backward(x_, feat_, dfeat_r, nullptr);
   if (azimuth_ce) *azimuth_ce = ce_total / static_cast<double>(B);
+  if (centre_loss) *centre_loss = centre_total / static_cast<double>(B);
   return total / static_cast<double>(B);
 }
 

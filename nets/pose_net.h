@@ -7,8 +7,12 @@
 //   -> distance head FC 256 -> 32 -> 1, d = d_min + sigmoid(z) (d_max - d_min)
 //   -> optional azimuth head FC 256 -> 128 -> K logits (azimuth_bins = K > 0): a coarse classifier of the camera
 //      centre's azimuth about the object's +y axis, bins centred at k * 360 / K
+//   -> optional centre head FC 256 -> 32 -> 2 (centre_head): where the object-frame origin appears, o = (p - c) / f
+//      for its image position p, the image centre c and DISN's focal length f
 //
-// The camera looks at the object-frame origin, so t = (0, 0, d) and K is DISN's (f = 149.84375, c = 68.5).
+// The camera looks at the object-frame origin, so t = (0, 0, d) and K is DISN's (f = 149.84375, c = 68.5); with the
+// centre head the principal point is c + f o instead: the camera of an image cropped around an off-centre object,
+// as recon's reframing of photos makes them (a render shows the origin at the centre, o = 0).
 // Distance range: DISN uses sigmoid * 0.4 + 0.6 times 1.75, i.e. [1.05, 1.75] ShapeNet units; our view sets
 // (camera/views.h) put the camera at 2.45..3.0 unit-sphere radii, so the default range is [2.3, 3.15].
 //
@@ -23,6 +27,8 @@
 //    checks the regressed rotation for flips (azimuth_flip_shift): when the classifier puts clearly more mass at the
 //    regressed azimuth turned by a whole number of bins, the camera is turned about +y by that amount. The 6D head
 //    keeps the fine pose; the classifier only picks the mode.
+// With the centre head, its loss d_t^2 |o - o_t|^2 (the origin's sideways displacement at the true distance d_t,
+// in L_cam's units) is added with weight centre_weight.
 #pragma once
 
 #include "camera/camera.h"
@@ -40,6 +46,7 @@ struct PoseNetSettings {
   double distance_min = 2.3;
   double distance_max = 3.15;
   int azimuth_bins = 0;  ///< K of the azimuth classifier head (0 = no head, as the models before it)
+  bool centre_head = false;  ///< regress the principal point (where the origin appears; false = the image centre)
 
   [[nodiscard]] Json to_json() const;
   static PoseNetSettings from_json(const Json& j);
@@ -59,6 +66,7 @@ struct PoseLossOptions {
   /// symmetries[b]: object-frame rotations mapping item b's shape onto itself (empty or absent = none).
   const std::vector<std::vector<Mat3>>* symmetries = nullptr;
   double azimuth_weight = 0;  ///< weight of the azimuth cross-entropy (needs the head; 0 = head untrained)
+  double centre_weight = 1;   ///< weight of the centre head's loss (ignored without the head)
 };
 
 /// Default margin of the flip check (PoseNet::set_flip_check).
@@ -89,10 +97,11 @@ class PoseNet {
   /// parameter gradients (call params().zero_grad() first). points[b] are item b's object-frame points. Data-
   /// parallel training runs one item per replica with weight 1 / batch (nets/pose_train.cpp).
   /// With options: L_cam modulo each item's symmetries and the weighted azimuth cross-entropy (its mean over the
-  /// items goes to *azimuth_ce when given). The return value is L_cam alone.
+  /// items goes to *azimuth_ce when given), and with the centre head its weighted loss (the unweighted mean to
+  /// *centre_loss when given). The return value is L_cam alone.
   double forward_backward(const MatrixXfR& images, const std::vector<PointsF>& points,
                           const std::vector<Camera>& truth, double weight = 1.0, const PoseLossOptions& options = {},
-                          double* azimuth_ce = nullptr);
+                          double* azimuth_ce = nullptr, double* centre_loss = nullptr);
   /// Make this network a replica of `master` (same settings): it reads master's parameter values and owns its
   /// activations and gradient buffer (ParamStore::share_values).
   void share_parameters(PoseNet& master) { store_.share_values(master.store_); }
@@ -103,21 +112,25 @@ class PoseNet {
   /// forward less the image gradient, which is not computed).
   [[nodiscard]] double train_step_flops(int batch) const;
 
-  /// Take the parameters of a network with the same settings except the distance range (`from`), re-expressing its
-  /// distance head in this network's range: the head's logit z becomes alpha z + beta (distance_logit_remap), so
-  /// that the predicted distance and its slope at the middle of `from`'s range are unchanged. Throws InvalidInput
-  /// when the settings differ otherwise or the middle of `from`'s range is outside this one.
+  /// Take the parameters of a network with the same settings except the distance range and the centre head
+  /// (`from`), re-expressing its distance head in this network's range: the head's logit z becomes alpha z + beta
+  /// (distance_logit_remap), so that the predicted distance and its slope at the middle of `from`'s range are
+  /// unchanged. When this network has a centre head and `from` has none, the head's last layer starts at zero (the
+  /// image centre, `from`'s answer) and its first layer keeps this network's initialisation. Throws InvalidInput
+  /// when the settings differ otherwise, `from` has a centre head this one lacks, or the middle of `from`'s range is
+  /// outside this one.
   void adopt_parameters(const PoseNet& from);
 
-  /// Camera from the raw head outputs (6D rotation, distance logit).
-  [[nodiscard]] Camera camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z) const;
+  /// Camera from the raw head outputs (6D rotation, distance logit, centre o or null for the image centre).
+  [[nodiscard]] Camera camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z,
+                                           const float* centre = nullptr) const;
 
  private:
   void run(const MatrixXfR& images, bool training);
   PoseNetSettings s_;
-  Sequential<float> trunk_, rot_head_, dist_head_, az_head_;
+  Sequential<float> trunk_, rot_head_, dist_head_, az_head_, centre_head_;
   ParamStore<float> store_;
-  Tensor x_, feat_, rot_, dist_, az_;
+  Tensor x_, feat_, rot_, dist_, az_, centre_;
   double flip_check_ = kDefaultFlipCheck;
 };
 
@@ -132,6 +145,14 @@ double pose_point_loss(const Eigen::Matrix3d& R, double d, const PointsF& points
 double pose_point_loss_modulo(const Eigen::Matrix3d& R, double d, const PointsF& points, const Camera& truth,
                               const std::vector<Mat3>& symmetries, Eigen::Matrix3d* dR, double* dd,
                               int* twin = nullptr);
+
+/// Where a camera shows the object-frame origin relative to its image centre, in focal lengths: o = (c' - c) / f
+/// for principal point c', image centre c = (width / 2, height / 2) and focal lengths (f_x, f_y). 0 for a render.
+Eigen::Vector2d camera_centre_offset(const Camera& cam);
+
+/// The centre head's loss of one item, d_t^2 |o - o_t|^2 with o_t = camera_centre_offset(truth) and d_t the true
+/// camera's distance |t|; its gradient wrt o in *grad when given.
+double pose_centre_loss(const Eigen::Vector2d& o, const Camera& truth, Eigen::Vector2d* grad);
 
 /// (alpha, beta) such that d(z) = a + (b - a) sigmoid(z) and d'(alpha z + beta) = a2 + (b2 - a2) sigmoid(alpha z +
 /// beta) agree in value and first derivative at z = 0 (d = (a + b) / 2). Throws InvalidInput when (a + b) / 2 is

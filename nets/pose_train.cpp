@@ -36,6 +36,14 @@ Json settings_json(const PoseTrainSettings& s) {
           {"zoom", s.zoom.to_json()}};
 }
 
+/// settings_json with the keys that newer options add only when they are used, so that older states resume.
+Json resumable_settings(const PoseTrainSettings& s) {
+  Json j = settings_json(s);
+  if (s.reframe.enabled()) j["reframe"] = s.reframe.to_json();
+  if (s.net.centre_head) j["centre_weight"] = s.centre_weight;
+  return j;
+}
+
 std::vector<PointsF> split_points(const SdfBatch& batch) {
   std::vector<PointsF> pts(static_cast<size_t>(batch.size()));
   const int N = batch.points_per_item;
@@ -192,6 +200,12 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   require(s.lr > 0 && s.lr_min >= 0 && s.lr_min <= s.lr, "train pose: need 0 <= lr-min <= lr, lr > 0");
   require(s.azimuth_weight >= 0 && std::isfinite(s.azimuth_weight), "train pose: the azimuth weight must be >= 0");
   require(s.azimuth_weight == 0 || s.net.azimuth_bins > 0, "train pose: --azimuth-weight needs --azimuth-bins > 0");
+  s.reframe.validate();
+  require(!s.reframe.enabled() || s.net.centre_head,
+          "train pose: --aug-reframe needs --centre-head (the reframed images' principal point is off the centre)");
+  require(s.reframe.camera == ZoomAugmentSettings::CameraFollow::kDistance,
+          "train pose: the reframing must move the distance (the network's focal length is DISN's)");
+  require(s.centre_weight >= 0 && std::isfinite(s.centre_weight), "train pose: the centre weight must be >= 0");
   PoseNet net(s.net, true);  // checks the network settings before any data is read
   const auto t0 = std::chrono::steady_clock::now();
   DatasetSettings ds;
@@ -257,7 +271,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     const Checkpoint ck = load_checkpoint(state_path);
     require_header_match(ck, "architecture", net.architecture(), state_path);
     // States written before --aug-* and --init existed lack those keys; they continue as runs with both off.
-    Json expected = settings_json(s);
+    Json expected = resumable_settings(s);
     const Json& stored = ck.header.value("settings", Json::object());
     if (stored.is_object() && !stored.contains("augment") && !s.augment.enabled()) expected.erase("augment");
     if (stored.is_object() && !stored.contains("init") && s.init.empty()) expected.erase("init");
@@ -296,15 +310,17 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     SdfBatch batch = sampler.batch(at, i0, i1);
     const uint64_t stream = static_cast<uint64_t>(at) * static_cast<uint64_t>(s.batch) + i0;
     zoom_images(batch.images, batch.cameras, s.zoom, s.seed, stream);
+    reframe_images(batch.images, batch.cameras, s.reframe, s.seed, stream);
     augment_images(batch.images, s.augment, s.seed, stream);
     return batch;
   };
   std::future<SdfBatch> next;
   if (step < s.steps) next = std::async(std::launch::async, load, step);
-  double interval_ce = 0;
+  double interval_ce = 0, interval_centre = 0;
   long interval_n = 0;
   bool stop = false;
-  std::vector<double> item_loss(static_cast<size_t>(local)), item_ce(static_cast<size_t>(local));
+  std::vector<double> item_loss(static_cast<size_t>(local)), item_ce(static_cast<size_t>(local)),
+      item_centre(static_cast<size_t>(local));
   while (step < s.steps && !stop) {
     SdfBatch batch = next.get();
     if (step + 1 < s.steps) next = std::async(std::launch::async, load, step + 1);
@@ -316,16 +332,21 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
       PoseLossOptions lo;
       lo.symmetries = &g;
       lo.azimuth_weight = s.azimuth_weight;
+      lo.centre_weight = s.centre_weight;
       item_loss[static_cast<size_t>(k)] =
           r.forward_backward(batch.images.middleRows(k, 1), {points[static_cast<size_t>(k)]},
-                             {batch.cameras[static_cast<size_t>(k)]}, 1.0 / s.batch, lo, &item_ce[static_cast<size_t>(k)]);
+                             {batch.cameras[static_cast<size_t>(k)]}, 1.0 / s.batch, lo, &item_ce[static_cast<size_t>(k)],
+                             &item_centre[static_cast<size_t>(k)]);
     });
-    double loss = 0, ce = 0;
+    double loss = 0, ce = 0, centre = 0;
     for (const double l : comm.gather(item_loss)) loss += l;
     for (const double l : comm.gather(item_ce)) ce += l;
+    for (const double l : comm.gather(item_centre)) centre += l;
     loss /= s.batch;
     ce /= s.batch;
+    centre /= s.batch;
     interval_ce += ce;
+    interval_centre += centre;
     comm.ordered_sum(item_grads, net.params().grads.data(), net.params().size(), true);
     if (s.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.params().size(), s.grad_clip);
     const double rate = lr.at(step);
@@ -345,16 +366,18 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
       row[4] = ev.val.d2d;
       curve.push_back(row);
       result.train_azimuth_ce = interval_n > 0 ? interval_ce / static_cast<double>(interval_n) : 0.0;
+      result.train_centre_loss = interval_n > 0 ? interval_centre / static_cast<double>(interval_n) : 0.0;
       interval_ce = 0;
+      interval_centre = 0;
       interval_n = 0;
       Json training = {{"step", step},       {"seconds", ev.seconds},     {"val_loss", ev.val.loss},
-                       {"val_d3d", ev.val.d3d}, {"val_d2d", ev.val.d2d}, {"settings", settings_json(s)},
+                       {"val_d3d", ev.val.d3d}, {"val_d2d", ev.val.d2d}, {"settings", resumable_settings(s)},
                        {"data", s.data},     {"val_split", s.val_split}};
       // Resumable state (parameters + optimizer + curve), then the small model file.
       Checkpoint ck;
       ck.header["kind"] = "pose_training_state";
       ck.header["architecture"] = net.architecture();
-      ck.header["settings"] = settings_json(s);
+      ck.header["settings"] = resumable_settings(s);
       ck.header["step"] = step;
       ck.header["seconds"] = ev.seconds;
       ck.header["curve"] = curve;
@@ -431,6 +454,12 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
         z.prob = 1;
         z.min = z.max = es.zoom;
         zoom_images(images, cams, z, es.seed, b0);
+      }
+      if (es.reframe) {
+        ReframeAugmentSettings r;
+        r.prob = 1;
+        r.camera = ZoomAugmentSettings::CameraFollow::kDistance;
+        reframe_images(images, cams, r, es.seed, b0);
       }
       std::vector<PoseErrors> each;
       std::vector<double> losses;

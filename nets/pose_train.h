@@ -41,6 +41,16 @@ struct PoseTrainSettings {
   /// Zoom augmentation (nets/dataset.h): images magnified about their centre, the camera distance divided by the
   /// magnification, so that the network reads the distance from the object's size. Applied before `augment`.
   ZoomAugmentSettings zoom;
+  /// Reframing augmentation (nets/dataset.h), after the zoom: images framed as recon frames photos, the principal
+  /// point moved with the crop and the distance divided by the magnification (CameraFollow::kDistance, required).
+  /// Needs the centre head (net.centre_head), which learns where the crop put the object-frame origin.
+  ReframeAugmentSettings reframe = [] {
+    ReframeAugmentSettings r;
+    r.camera = ZoomAugmentSettings::CameraFollow::kDistance;
+    return r;
+  }();
+  /// Weight of the centre head's loss (PoseLossOptions::centre_weight; used with net.centre_head).
+  double centre_weight = 1;
   /// Weight of the azimuth head's cross-entropy (net.azimuth_bins > 0 required when positive).
   double azimuth_weight = 0;
   /// The object-frame rotations that map a training shape onto itself (e.g. sdf/symmetry.h from its gt mesh),
@@ -86,6 +96,7 @@ struct PoseTrainResult {
   double total_seconds = 0;  ///< including earlier runs that were resumed
   PoseScores val;
   double train_azimuth_ce = 0;  ///< mean azimuth cross-entropy of the last validation interval (0 without the head)
+  double train_centre_loss = 0; ///< mean centre-head loss of the last validation interval (0 without the head)
   long symmetric_shapes = 0;    ///< training shapes with at least one symmetry (with a symmetry source)
   std::string model, csv, plot;
 };
@@ -113,6 +124,9 @@ struct PoseEvalSettings {
   /// probability 1; lowered per image when the object would leave the frame): how well the network reads the
   /// distance from the object's size. 1 = the views as rendered.
   double zoom = 1;
+  /// Then frame every image as recon frames a photo (reframe_images with probability 1, the distance divided by
+  /// the magnification, the principal point moved with the crop): how well the network reads recon's inputs.
+  bool reframe = false;
 };
 PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettings& settings,
                          std::map<std::string, PoseScores>* per_category = nullptr,

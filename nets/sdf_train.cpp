@@ -214,6 +214,8 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   require(st.zoom.camera == ZoomAugmentSettings::CameraFollow::kFocal,
           "train sdf: the zoom augmentation must move the intrinsics (the network projects with the camera)");
   st.reframe.validate();
+  require(st.reframe.camera == ZoomAugmentSettings::CameraFollow::kFocal,
+          "train sdf: the reframing must move the intrinsics (the network projects with the camera)");
   const SdfAdversarialSettings& adv = st.adversarial;
   if (adv.enabled()) {
     require(Comm::world().size() == 1, "train sdf: --adversarial runs in one process (no MPI ranks)");

@@ -396,3 +396,117 @@ TEST_CASE("distance head remap: same distance and slope at the old range's middl
   PoseNet mismatched(other, false);
   CHECK_THROWS_AS(mismatched.adopt_parameters(from), InvalidInput);
 }
+
+TEST_CASE("pose net with a centre head: closed-form loss, gradients by finite differences, the principal point") {
+  // The loss: d_t^2 |o - o_t|^2 with o_t the true principal point's offset in focal lengths.
+  Camera truth = look_at(40, 20, 2.5);
+  const double f = truth.K(0, 0), c = 0.5 * truth.width;
+  truth.K(0, 2) = c + 0.1 * f;
+  truth.K(1, 2) = c - 0.05 * f;
+  CHECK(camera_centre_offset(truth).x() == doctest::Approx(0.1).epsilon(1e-12));
+  CHECK(camera_centre_offset(truth).y() == doctest::Approx(-0.05).epsilon(1e-12));
+  CHECK(camera_centre_offset(look_at(10, 30, 2.7)).norm() < 1e-12);  // a render shows the origin at the centre
+  Eigen::Vector2d g;
+  CHECK(pose_centre_loss(Eigen::Vector2d(0.3, -0.2), truth, &g) ==
+        doctest::Approx(6.25 * (0.2 * 0.2 + 0.15 * 0.15)).epsilon(1e-12));
+  CHECK(g.x() == doctest::Approx(2 * 6.25 * 0.2).epsilon(1e-12));
+  CHECK(g.y() == doctest::Approx(2 * 6.25 * -0.15).epsilon(1e-12));
+  CHECK(pose_centre_loss(Eigen::Vector2d(0.1, -0.05), truth, nullptr) == doctest::Approx(0).scale(1));
+
+  PoseNetSettings s = tiny_with_head(8);
+  s.centre_head = true;
+  PoseNet net(s, true);
+  net.init(21);
+  Rng rng(22);
+  for (auto& v : net.params().values) v += static_cast<float>(0.05 * rng.uniform(-1, 1));
+  MatrixXfR img(2, 3 * 40 * 40);
+  for (Eigen::Index i = 0; i < img.size(); ++i) img.data()[i] = static_cast<float>(rng.uniform());
+  Camera t0 = look_at(30, 25, 2.6, 40, 40), t1 = look_at(250, 28, 2.9, 40, 40);
+  t0.K(0, 2) += 3.0;
+  t1.K(1, 2) -= 4.0;
+  const std::vector<Camera> cams = {t0, t1};
+  const std::vector<PointsF> pts = {random_points(32, 3), random_points(32, 4)};
+  PoseLossOptions lo;
+  lo.azimuth_weight = 0.3;
+  lo.centre_weight = 2.0;
+  auto value = [&] {
+    double ce = 0, centre = 0;
+    net.params().zero_grad();
+    const double l = net.forward_backward(img, pts, cams, 1.0, lo, &ce, &centre);
+    return l + lo.azimuth_weight * ce + lo.centre_weight * centre;
+  };
+  value();
+  const std::vector<float> grads(net.params().grads.begin(), net.params().grads.end());
+  // The centre head's output bias (the last two parameters): d/db = w / B sum_b 2 d_b^2 (o_b - o_tb), closed form.
+  const PosePrediction p = net.predict(img);
+  for (int a = 0; a < 2; ++a) {
+    double expect = 0;
+    for (int b = 0; b < 2; ++b) {
+      const Eigen::Vector2d o = camera_centre_offset(p.regressed[b]);
+      Eigen::Vector2d gb;
+      pose_centre_loss(o, cams[b], &gb);
+      expect += gb[a];
+    }
+    CHECK(grads[net.n_params() - 2 + a] == doctest::Approx(2.0 / 2 * expect).epsilon(1e-3));
+  }
+  std::vector<size_t> idx = test::some_indices(net.n_params(), 40, 7);
+  for (size_t k = 0; k < 24; ++k) idx.push_back(net.n_params() - 1 - 5 * k);  // the centre head
+  std::vector<double> analytic, numeric;
+  for (size_t i : idx) {
+    float& v = net.params().values[i];
+    const float old = v;
+    const float h = 2e-3f;
+    v = old + h;
+    const double fp = value();
+    v = old - h;
+    const double fm = value();
+    v = old;
+    numeric.push_back((fp - fm) / (2.0 * h));
+    analytic.push_back(grads[i]);
+  }
+  CHECK(test::relative_error(analytic, numeric) < 2e-2);
+  // The predicted camera's principal point is c + f o for the head's output: with its last layer's weights at 0,
+  // o is the bias.
+  const size_t n = net.n_params();
+  for (size_t i = n - 2 - 64; i < n - 2; ++i) net.params().values[i] = 0.0f;
+  net.params().values[n - 2] = 0.125f;
+  net.params().values[n - 1] = -0.0625f;
+  const PosePrediction q = net.predict(img);
+  for (const Camera& cam : q.regressed) {
+    CHECK(cam.K(0, 2) == doctest::Approx(20.0 + 0.125 * cam.K(0, 0)).epsilon(1e-12));
+    CHECK(cam.K(1, 2) == doctest::Approx(20.0 - 0.0625 * cam.K(1, 1)).epsilon(1e-12));
+  }
+  CHECK(s.to_json().at("centre_head") == true);
+  CHECK(PoseNetSettings::from_json(s.to_json()).centre_head);
+  CHECK(!tiny_with_head(8).to_json().contains("centre_head"));
+  lo.centre_weight = -1;
+  CHECK_THROWS_AS(net.forward_backward(img, pts, cams, 1.0, lo), InvalidInput);
+}
+
+TEST_CASE("a centre head adopted from a model without one starts at the image centre, same cameras otherwise") {
+  PoseNetSettings s = tiny_with_head(8);
+  PoseNet from(s, false);
+  from.init(5);
+  PoseNetSettings with = s;
+  with.centre_head = true;
+  with.distance_min = 1.4;
+  with.distance_max = 4.4;
+  PoseNet to(with, false);
+  to.init(6);
+  to.adopt_parameters(from);
+  MatrixXfR img = MatrixXfR::Random(3, 3 * 40 * 40).array() * 0.5f + 0.5f;
+  const PosePrediction p = from.predict(img), q = to.predict(img);
+  for (size_t i = 0; i < 3; ++i) {
+    CHECK((p.regressed[i].R - q.regressed[i].R).norm() < 1e-12);
+    CHECK((p.regressed[i].K - q.regressed[i].K).norm() == 0.0);  // the centre: o = 0 exactly
+    CHECK(q.regressed[i].t.z() == doctest::Approx(p.regressed[i].t.z()).epsilon(0.01));
+    CHECK(p.azimuth_prob[i] == q.azimuth_prob[i]);
+  }
+  // The head's first layer keeps its own initialisation (not zero), so that it can learn.
+  double first = 0;
+  for (size_t i = from.n_params(); i < to.n_params() - 66; ++i) first += std::abs(to.params().values[i]);
+  CHECK(first > 0);
+  // The other way round is refused: a model with a centre head cannot be adopted by one without.
+  PoseNet back(s, false);
+  CHECK_THROWS_AS(back.adopt_parameters(to), InvalidInput);
+}

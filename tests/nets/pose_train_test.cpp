@@ -227,6 +227,51 @@ TEST_CASE("train pose with zoomed views: recorded, changes the training, --init 
   fs::remove_all(root);
 }
 
+TEST_CASE("train pose with reframed views and a centre head: recorded, resumes bit for bit, refused without the head") {
+  const fs::path root = make_pose_dataset();
+  PoseTrainSettings s = tiny_settings(root, (root / "plain.ckpt").string());
+  train_pose(s);
+  // From the plain model: the centre head is added (starting at the image centre), the distance range widened.
+  PoseTrainSettings r = tiny_settings(root, (root / "reframed.ckpt").string());
+  r.net.centre_head = true;
+  r.net.distance_min = 0.9;
+  r.net.distance_max = 4.4;
+  r.reframe.prob = 1;
+  r.steps = 4;
+  r.val_every = 2;
+  r.init = s.out;
+  const PoseTrainResult straight = train_pose(r);
+  CHECK(straight.train_centre_loss > 0);
+  Json training;
+  const auto net = load_pose_model(r.out, &training);
+  CHECK(net->settings().centre_head);
+  CHECK(training.at("settings").at("reframe").at("camera") == "distance");
+  CHECK(training.at("settings").at("centre_weight").get<double>() == 1.0);
+  // Cut after the first step (the time limit stops and saves) and resumed: the same parameters.
+  PoseTrainSettings cut = r;
+  cut.out = (root / "cut.ckpt").string();
+  cut.time_limit_seconds = 1e-9;
+  train_pose(cut);
+  cut.time_limit_seconds = 0;
+  cut.resume = true;
+  const PoseTrainResult resumed = train_pose(cut);
+  CHECK(resumed.start_step == 1);
+  CHECK(model_params(r.out) == model_params(cut.out));
+  // A resume asking for another reframing is refused.
+  cut.reframe.extent = 0.5;
+  CHECK_THROWS_AS(train_pose(cut), InvalidInput);
+  // Without the centre head the reframed targets cannot be met: refused, as is the focal-length mode.
+  PoseTrainSettings bad = r;
+  bad.out = (root / "bad.ckpt").string();
+  bad.net.centre_head = false;
+  CHECK_THROWS_AS(train_pose(bad), InvalidInput);
+  bad.net.centre_head = true;
+  bad.reframe.camera = ZoomAugmentSettings::CameraFollow::kFocal;
+  CHECK_THROWS_AS(train_pose(bad), InvalidInput);
+  CHECK(!fs::exists(bad.out));
+  fs::remove_all(root);
+}
+
 TEST_CASE("train pose --resume accepts a state written before the augmentation and --init settings existed") {
   const fs::path root = make_pose_dataset();
   PoseTrainSettings s = tiny_settings(root, (root / "old.ckpt").string());

@@ -3,6 +3,7 @@
 #include "camera/camera.h"
 #include "core/error.h"
 #include "core/random.h"
+#include "nets/dataset.h"
 
 #include <doctest/doctest.h>
 
@@ -243,4 +244,35 @@ TEST_CASE("framing: a channel of the input's size follows the crop (identity whe
     for (int x = 0; x < 137; ++x) diff = std::max(diff, double(std::abs(framed.at(x, y) - f.image.at(x, y, 3))));
   CHECK(diff < 1e-5);
   CHECK_THROWS_AS(frame_channel(Image(10, 10, 1), f), InvalidInput);
+}
+
+TEST_CASE("the training reframing augmentation frames a render where recon frames it") {
+  // Defaults: the augmentation's framing is recon's (apps set it from TrainingFraming; the structs agree too).
+  const TrainingFraming tf;
+  const ReframeAugmentSettings aug;
+  CHECK(aug.extent == tf.extent);
+  CHECK(aug.centre_dx == tf.centre_dx);
+  CHECK(aug.centre_dy == tf.centre_dy);
+  // A small off-centre object in a 137 px render, framed by recon (always reframed) and by the augmentation: the
+  // object's box lands at the same size and place, to a pixel.
+  const Image im = ellipse_image(137, 137, 45, 88, 14, 20, kWhite, true);
+  FramingSettings fs;
+  fs.reframe = Reframing::kAlways;
+  const FramedInput f = frame_input(im, nullptr, fs, "render");
+  REQUIRE(f.reframed);
+  const InkBox by_recon = ink_box(network_image(f.image), kNetImageSize);
+  MatrixXfR rows(1, 3 * kNetImageSize * kNetImageSize);
+  rows.row(0) = network_image(im).transpose();
+  std::vector<Camera> cams = {look_at(0, 20, 2.5)};
+  ReframeAugmentSettings r = aug;
+  r.prob = 1;
+  reframe_images(rows, cams, r, 1, 0);
+  const InkBox by_aug = ink_box(rows.row(0).transpose(), kNetImageSize);
+  REQUIRE(!by_recon.empty);
+  REQUIRE(!by_aug.empty);
+  for (const auto& [a, b] : {std::pair{by_recon.x0, by_aug.x0}, {by_recon.x1, by_aug.x1}, {by_recon.y0, by_aug.y0},
+                            {by_recon.y1, by_aug.y1}})
+    CHECK(std::abs(a - b) <= 1.0);
+  // The object's height becomes 0.67 of the image, plus the magnified edge's blur (k = 2.3: a pixel either side).
+  CHECK(by_aug.y1 - by_aug.y0 == doctest::Approx(tf.extent * kNetImageSize).epsilon(3.0 / 92));
 }
