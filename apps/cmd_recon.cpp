@@ -15,6 +15,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <tuple>
 #include <filesystem>
 #include <iostream>
 #include <map>
@@ -75,7 +76,7 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
     if (!refine && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-camera");
   for (const char* f : {"--refine-distance", "--refine-evals", "--refine-max-deg", "--refine-max-distance"})
     if (!local && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-local");
-  for (const char* f : {"--pose-model", "--flip-check"})
+  for (const char* f : {"--pose-model", "--flip-check", "--pose-distances"})
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
   for (const char* f : {"--segment", "--box"})
@@ -85,6 +86,7 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
 std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
     std::string input, out, model, pose_model, cam = "est", mask, format = "obj", segment = "auto", framing = "auto", box;
+    std::string pose_distances = "off";
     ReconSettings s;
     bool json = false, no_preview = false;
     int jobs = 1;
@@ -154,6 +156,12 @@ std::function<int()> setup_recon(CLI::App& app) {
   CLI::Option* format_opt = app.add_option("--format", o->format, "mesh format in folder mode: obj, ply, off or stl")
       ->capture_default_str()
       ->check(CLI::IsMember(kMeshOutExtensions));
+  app.add_option("--pose-distances", o->pose_distances,
+                 "MIN,MAX: the training renders' camera distances (2.45,3.0 for sdfkit's view sets); an estimated "
+                 "distance outside them is read as a longer or shorter focal length at the nearest of them, the "
+                 "camera that makes a magnified or shrunk image (reframed photos); off = the pose network's camera "
+                 "as it is")
+      ->capture_default_str();
   app.add_option("--flip-check", o->s.flip_check,
                  "pose models with an azimuth head: turn the estimated camera to the azimuth the head prefers when it "
                  "gives that azimuth more than this many times the probability of the regressed one (0 = off)")
@@ -223,6 +231,9 @@ std::function<int()> setup_recon(CLI::App& app) {
     o->s.refine_joint = o->refine_mode == "joint";
     o->s.framing.segment = parse_segmentation(o->segment);
     o->s.framing.reframe = parse_reframing(o->framing);
+    if (o->pose_distances != "off")
+      std::tie(o->s.pose_distance_min, o->s.pose_distance_max) =
+          parse_positive_range(o->pose_distances, "recon: --pose-distances");
     if (!o->box.empty()) o->s.framing.box = parse_pixel_box(o->box);
     if (o->refine && o->s.refine_rounds == 0) o->s.refine_rounds = 1;
     const bool estimate = o->cam == "est";

@@ -6,6 +6,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace sdfkit {
@@ -84,6 +85,26 @@ Camera look_at(double azimuth_deg, double elevation_deg, double distance, int wi
 }
 
 Vec3 camera_center(const Camera& cam) { return -cam.R.transpose() * cam.t; }
+
+Camera distance_as_focal(const Camera& cam, double d_min, double d_max) {
+  require(std::isfinite(d_min) && std::isfinite(d_max) && d_min > 0 && d_min <= d_max,
+          "distance_as_focal: need 0 < d_min <= d_max");
+  const double d = cam.t.norm();
+  require(std::isfinite(d) && d > 0 && std::abs(cam.t.z()) > 0,
+          "distance_as_focal: the camera must be away from the origin, which must not lie in its focal plane");
+  const double target = std::clamp(d, d_min, d_max);
+  if (target == d) return cam;
+  const double k = target / d;
+  Camera out = cam;
+  out.t = k * cam.t;
+  out.K(0, 0) *= k;
+  out.K(0, 1) *= k;
+  out.K(1, 1) *= k;
+  // The origin projects at c + (f t_x + s t_y) / t_z; t_x / t_z is unchanged, f and s grew by k.
+  out.K(0, 2) += (1 - k) * (cam.K(0, 0) * cam.t.x() + cam.K(0, 1) * cam.t.y()) / cam.t.z();
+  out.K(1, 2) += (1 - k) * cam.K(1, 1) * cam.t.y() / cam.t.z();
+  return out;
+}
 
 Camera turn_about_vertical(const Camera& cam, double degrees) {
   const double a = degrees * kDeg, c = std::cos(a), s = std::sin(a);

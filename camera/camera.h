@@ -57,6 +57,15 @@ Vec3 camera_center(const Camera& cam);
 /// camera, turn_about_vertical(look_at(a, e, d), x) = look_at(a + x, e, d).
 Camera turn_about_vertical(const Camera& cam, double degrees);
 
+/// The same view with the camera's distance to the object-frame origin |t| brought into [d_min, d_max] and the
+/// focal lengths and skew scaled by the same factor k = d' / |t| (t' = k t, the principal point moved so that the
+/// origin projects where it did). Points near the origin project nearly where they did (the same image in weak
+/// perspective), but the perspective is that of a camera at d'. A distance read off a magnified image (an object
+/// m times larger in the image answers d / m) becomes the distance the renders use and an m-times longer focal
+/// length, which is how a crop of a photo is made; a camera already in range comes back unchanged. Throws
+/// InvalidInput unless 0 < d_min <= d_max and |t| > 0.
+Camera distance_as_focal(const Camera& cam, double d_min, double d_max);
+
 /// x_cam = R x + t.
 inline Vec3 to_camera(const Camera& cam, const Vec3& x) { return cam.R * x + cam.t; }
 

@@ -211,6 +211,10 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
             what + ": (resolution - 1) / (coarse resolution - 1) must be a power of two, e.g. 65, 129, 257 with 17");
   }
   require(settings.safety >= 1.0, what + ": safety factor must be >= 1");
+  require((settings.pose_distance_min == 0 && settings.pose_distance_max == 0) ||
+              (settings.pose_distance_min > 0 && settings.pose_distance_min <= settings.pose_distance_max &&
+               std::isfinite(settings.pose_distance_max)),
+          what + ": the pose distance range must be 0 < min <= max (or both 0: off)");
   ReconResult r;
   const auto t_all = Clock::now();
   auto t = Clock::now();
@@ -220,6 +224,8 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
     r.camera_estimated = false;
   } else {
     r.camera = estimate_camera(input, settings.flip_check, &r.flip_turn_deg);
+    if (settings.pose_distance_max > 0)
+      r.camera = distance_as_focal(r.camera, settings.pose_distance_min, settings.pose_distance_max);
     r.camera_estimated = true;
     r.timings.pose = since(t);
   }

@@ -47,6 +47,12 @@ struct ReconSettings {
   /// the regressed camera is turned to the azimuth the head prefers when the head gives that azimuth more than
   /// this many times the probability mass of the regressed one. 0 = the 6D head alone.
   double flip_check = kDefaultFlipCheck;
+  /// The training renders' camera distances (camera/views.h: 2.45-3.0). With both set, an estimated camera whose
+  /// distance falls outside them is read as a focal length (camera.h's distance_as_focal): the pose network answers
+  /// an object magnified by recon's crop with a shorter distance, while that image is the one a camera at a render
+  /// distance with a longer focal length makes, and the SDF network projects its points through the camera it is
+  /// given. Both 0 = off (the network's camera as it is).
+  double pose_distance_min = 0, pose_distance_max = 0;
   /// Rounds of test-time camera refinement by silhouette alignment (recon/camera_refine.h; 0 = off). Each round
   /// reconstructs a mesh at `refine_resolution` with the current camera, aligns its silhouette to the input's
   /// object mask (the framing's mask) and continues with the refined camera; the final mesh is reconstructed with

@@ -263,6 +263,14 @@ TEST_CASE("recon of a non-square photo-like image: plain background found, refra
   const double iou = iou_of(out, kSource + "/data/examples/gt/plane_0010.ply");
   MESSAGE("IoU of the plane on blue, off-centre, 300 x 180: " << iou);
   CHECK(iou > 0.5);
+  // With --pose-distances the estimated camera keeps its view of the origin and lies at a render distance.
+  const Run rd = run("recon " + in + " -o " + (dir / "comp_d.stl").string() + " --res 33 --json --pose-distances 2.6,2.6");
+  REQUIRE_MESSAGE(rd.code == 0, rd.err);
+  const Json jd = Json::parse(rd.out);
+  const Camera netd = camera_from_json(jd["network_camera"]);
+  CHECK(netd.t.norm() == doctest::Approx(2.6).epsilon(1e-9));
+  CHECK((project(netd, Vec3::Zero()) - project(net, Vec3::Zero())).norm() < 1e-6);
+  CHECK(netd.K(0, 0) / net.K(0, 0) == doctest::Approx(2.6 / net.t.norm()).epsilon(1e-9));
 }
 
 TEST_CASE("recon outputs: the format follows -o, a folder only for a folder input, flags that do not apply fail") {
@@ -288,6 +296,8 @@ TEST_CASE("recon outputs: the format follows -o, a folder only for a folder inpu
       {"recon " + img + " -o " + (dir / "f.obj").string() + " --format ply" + cam, "--format applies"},
       {"recon " + img + " -o " + (dir / "j.obj").string() + " --jobs 0" + cam, "must be > 0 (got 0)"},
       {"recon " + img + " -o " + (dir / "k.obj").string() + " --flip-check 2" + cam, "applies with --cam est"},
+      {"recon " + img + " -o " + (dir / "k2.obj").string() + " --pose-distances 2.45,3" + cam, "applies with --cam est"},
+      {"recon " + img + " -o " + (dir / "k3.obj").string() + " --pose-distances 3,2 --res 33", "0 < MIN <= MAX"},
       {"recon " + img + " -o " + (dir / "l.obj").string() + " --refine-res 17" + cam, "applies with --refine-camera"},
       {"recon " + img + " -o " + (dir / "m.obj").string() + " --dense --safety 3" + cam, "--safety applies"},
   };

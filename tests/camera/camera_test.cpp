@@ -93,6 +93,47 @@ TEST_CASE("camera: turn_about_vertical moves a look-at camera's azimuth and sees
   }
 }
 
+TEST_CASE("camera: distance_as_focal keeps the origin's pixel and recovers the camera of a magnified image") {
+  // In range: the camera comes back unchanged.
+  const Camera in = look_at(40, 25, 2.7);
+  const Camera same = distance_as_focal(in, 2.45, 3.0);
+  CHECK((same.K - in.K).norm() == 0.0);
+  CHECK((same.t - in.t).norm() == 0.0);
+  // An image magnified 2x about its centre: made by the camera at 2.6 with a 2x focal length. A distance-only
+  // estimate answers 1.3 with the renders' focal length; read as a focal length it is the camera at 2.45 with
+  // 2.6 / 1.3 * 2.45 / 2.6 = 1.885x the focal length, nearly the true one.
+  Camera truth = look_at(40, 25, 2.6);
+  truth.K(0, 0) *= 2;
+  truth.K(1, 1) *= 2;
+  const Camera near = look_at(40, 25, 1.3);
+  const Camera fixed = distance_as_focal(near, 2.45, 3.0);
+  CHECK(fixed.t.norm() == doctest::Approx(2.45).epsilon(1e-12));
+  CHECK(fixed.K(0, 0) == doctest::Approx(near.K(0, 0) * 2.45 / 1.3).epsilon(1e-12));
+  CHECK((fixed.R - near.R).norm() == 0.0);
+  Rng rng(3);
+  double err_near = 0, err_fixed = 0;
+  for (int i = 0; i < 200; ++i) {
+    const Vec3 x(rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6));
+    const Eigen::Vector2d p = project(truth, x);
+    err_near += (project(near, x) - p).norm();
+    err_fixed += (project(fixed, x) - p).norm();
+  }
+  CHECK(err_fixed < 0.25 * err_near);
+  CHECK((project(fixed, Vec3::Zero()) - project(truth, Vec3::Zero())).norm() < 1e-9);
+  // A camera whose origin is off its axis (a moved principal point, a sideways t): the origin keeps its pixel.
+  Camera side = look_at(10, 30, 4.2);
+  side.t += Vec3(0.3, -0.2, 0);
+  side.K(0, 1) = 2.0;
+  side.K(0, 2) += 7;
+  const Camera moved = distance_as_focal(side, 2.45, 3.0);
+  CHECK(moved.t.norm() == doctest::Approx(3.0).epsilon(1e-12));
+  CHECK((project(moved, Vec3::Zero()) - project(side, Vec3::Zero())).norm() < 1e-9);
+  CHECK_THROWS_AS(distance_as_focal(in, 3.0, 2.45), InvalidInput);
+  Camera at_origin = in;
+  at_origin.t.setZero();
+  CHECK_THROWS_AS(distance_as_focal(at_origin, 2.45, 3.0), InvalidInput);
+}
+
 TEST_CASE("camera: projection Jacobians against finite differences") {
   Rng rng(8);
   for (int k = 0; k < 30; ++k) {
