@@ -105,11 +105,7 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   app.add_option("--centre-weight", s.centre_weight, "weight of the centre head's loss")
       ->capture_default_str()
       ->check(non_negative());
-  // The reframing targets recon's framing of real inputs (recon/framing.h).
-  const TrainingFraming framing;
-  s.reframe.extent = framing.extent;
-  s.reframe.centre_dx = framing.centre_dx;
-  s.reframe.centre_dy = framing.centre_dy;
+  frame_like_recon(s.reframe);  // the framing recon gives real inputs
   app.add_option("--aug-reframe", s.reframe.prob,
                  "probability of reframing a training image as recon frames a photo (the object's box to 0.67 of "
                  "the image, its centre at the renders' median place), after the zoom: the distance is divided by "

@@ -110,11 +110,7 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   app.add_option("--zoom-range", o->zoom_range,
                  "MIN,MAX: range of the zoom factor (log-uniform; lowered where the object would leave the frame)")
       ->capture_default_str();
-  // The reframing targets recon's framing of real inputs, so that training shows the network what recon gives it.
-  const TrainingFraming framing;
-  s.reframe.extent = framing.extent;
-  s.reframe.centre_dx = framing.centre_dx;
-  s.reframe.centre_dy = framing.centre_dy;
+  frame_like_recon(s.reframe);  // the framing recon gives real inputs
   app.add_option("--aug-reframe", s.reframe.prob,
                  "probability of reframing a training image as recon frames a photo (the object's box to 0.67 of "
                  "the image, its centre at the renders' median place), after the zoom; the camera follows exactly, "

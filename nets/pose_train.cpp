@@ -27,18 +27,14 @@ namespace {
 constexpr const char* kPoseKind = "pose_model";
 
 Json settings_json(const PoseTrainSettings& s) {
-  // What must not change across a resume (changing it would break the bit-exact continuation).
-  return {{"train_split", s.train_split}, {"steps", s.steps},   {"batch", s.batch},
-          {"points", s.points},           {"lr", s.lr},         {"lr_min", s.lr_min},
-          {"beta1", s.beta1},             {"weight_decay", s.weight_decay}, {"grad_clip", s.grad_clip},
-          {"max_shapes", s.max_shapes},   {"seed", s.seed}, {"augment", s.augment.to_json()},
-          {"init", s.init}, {"azimuth_weight", s.azimuth_weight}, {"symmetries", s.symmetry_tag},
-          {"zoom", s.zoom.to_json()}};
-}
-
-/// settings_json with the keys that newer options add only when they are used, so that older states resume.
-Json resumable_settings(const PoseTrainSettings& s) {
-  Json j = settings_json(s);
+  // What must not change across a resume (changing it would break the bit-exact continuation). Keys of newer options
+  // appear only when they are used, so that states written before them still resume.
+  Json j = {{"train_split", s.train_split}, {"steps", s.steps},   {"batch", s.batch},
+            {"points", s.points},           {"lr", s.lr},         {"lr_min", s.lr_min},
+            {"beta1", s.beta1},             {"weight_decay", s.weight_decay}, {"grad_clip", s.grad_clip},
+            {"max_shapes", s.max_shapes},   {"seed", s.seed}, {"augment", s.augment.to_json()},
+            {"init", s.init}, {"azimuth_weight", s.azimuth_weight}, {"symmetries", s.symmetry_tag},
+            {"zoom", s.zoom.to_json()}};
   if (s.reframe.enabled()) j["reframe"] = s.reframe.to_json();
   if (s.net.centre_head) j["centre_weight"] = s.centre_weight;
   return j;
@@ -271,7 +267,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     const Checkpoint ck = load_checkpoint(state_path);
     require_header_match(ck, "architecture", net.architecture(), state_path);
     // States written before --aug-* and --init existed lack those keys; they continue as runs with both off.
-    Json expected = resumable_settings(s);
+    Json expected = settings_json(s);
     const Json& stored = ck.header.value("settings", Json::object());
     if (stored.is_object() && !stored.contains("augment") && !s.augment.enabled()) expected.erase("augment");
     if (stored.is_object() && !stored.contains("init") && s.init.empty()) expected.erase("init");
@@ -371,13 +367,13 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
       interval_centre = 0;
       interval_n = 0;
       Json training = {{"step", step},       {"seconds", ev.seconds},     {"val_loss", ev.val.loss},
-                       {"val_d3d", ev.val.d3d}, {"val_d2d", ev.val.d2d}, {"settings", resumable_settings(s)},
+                       {"val_d3d", ev.val.d3d}, {"val_d2d", ev.val.d2d}, {"settings", settings_json(s)},
                        {"data", s.data},     {"val_split", s.val_split}};
       // Resumable state (parameters + optimizer + curve), then the small model file.
       Checkpoint ck;
       ck.header["kind"] = "pose_training_state";
       ck.header["architecture"] = net.architecture();
-      ck.header["settings"] = resumable_settings(s);
+      ck.header["settings"] = settings_json(s);
       ck.header["step"] = step;
       ck.header["seconds"] = ev.seconds;
       ck.header["curve"] = curve;

@@ -252,6 +252,12 @@ std::string segmentation_name(Segmentation s) {
   return "auto";
 }
 
+void frame_like_recon(ReframeAugmentSettings& r, const TrainingFraming& tf) {
+  r.extent = tf.extent;
+  r.centre_dx = tf.centre_dx;
+  r.centre_dy = tf.centre_dy;
+}
+
 Reframing parse_reframing(const std::string& name) {
   if (name == "auto") return Reframing::kAuto;
   if (name == "always") return Reframing::kAlways;

@@ -9,6 +9,7 @@
 
 #include "camera/camera.h"
 #include "camera/image.h"
+#include "nets/dataset.h"
 
 #include <optional>
 #include <string>
@@ -56,6 +57,10 @@ struct TrainingFraming {
   double centre_dy = 0.033;        ///< same, y down
   double centre_tolerance = 0.25;  ///< largest distance of the box centre from the median kept as it is
 };
+
+/// Point the training reframing augmentation (`train sdf|pose --aug-reframe`) at this framing, so that training
+/// shows the networks what frame_input gives them: extent and centre offsets from `tf`, the rest of `r` kept.
+void frame_like_recon(ReframeAugmentSettings& r, const TrainingFraming& tf = {});
 
 struct FramingSettings {
   Segmentation segment = Segmentation::kAuto;

@@ -37,18 +37,21 @@ inline double relative_error(const std::vector<double>& a, const std::vector<dou
   return std::sqrt(d) / std::max({std::sqrt(na), std::sqrt(nn), floor});
 }
 
-/// Central difference of scalar f with respect to the entries `idx` of the buffer v (restored afterwards).
-inline std::vector<double> numeric_gradient(const std::function<double()>& f, double* v, const std::vector<size_t>& idx,
-                                            double h = 1e-6) {
+/// Central difference of scalar f with respect to the entries `idx` of the buffer v (restored afterwards); the step
+/// h is taken in v's precision (a float buffer moves by float(h)).
+template <typename T>
+std::vector<double> numeric_gradient(const std::function<double()>& f, T* v, const std::vector<size_t>& idx,
+                                     double h = 1e-6) {
+  const T step = static_cast<T>(h);
   std::vector<double> g;
   for (size_t i : idx) {
-    const double old = v[i];
-    v[i] = old + h;
+    const T old = v[i];
+    v[i] = old + step;
     const double fp = f();
-    v[i] = old - h;
+    v[i] = old - step;
     const double fm = f();
     v[i] = old;
-    g.push_back((fp - fm) / (2 * h));
+    g.push_back((fp - fm) / (2 * static_cast<double>(step)));
   }
   return g;
 }

@@ -286,19 +286,9 @@ TEST_CASE("pose net with an azimuth head: gradients of L_cam (modulo symmetries)
   // Every other parameter: central differences in float (loose tolerance), over the trunk and the three heads.
   std::vector<size_t> idx = test::some_indices(net.n_params(), 40, 5);
   for (size_t k = 0; k < 20; ++k) idx.push_back(net.n_params() - 1 - 37 * k);  // the heads
-  std::vector<double> analytic, numeric;
-  for (size_t i : idx) {
-    float& v = net.params().values[i];
-    const float old = v;
-    const float h = 2e-3f;
-    v = old + h;
-    const double fp = value();
-    v = old - h;
-    const double fm = value();
-    v = old;
-    numeric.push_back((fp - fm) / (2.0 * h));
-    analytic.push_back(grads[i]);
-  }
+  const std::vector<double> numeric = test::numeric_gradient<float>(value, net.params().values.data(), idx, 2e-3);
+  std::vector<double> analytic;
+  for (size_t i : idx) analytic.push_back(grads[i]);
   CHECK(test::relative_error(analytic, numeric) < 2e-2);
   // Weight 0 leaves the head without gradient, and a head-less model refuses a weight.
   lo.azimuth_weight = 0;
@@ -451,19 +441,9 @@ TEST_CASE("pose net with a centre head: closed-form loss, gradients by finite di
   }
   std::vector<size_t> idx = test::some_indices(net.n_params(), 40, 7);
   for (size_t k = 0; k < 24; ++k) idx.push_back(net.n_params() - 1 - 5 * k);  // the centre head
-  std::vector<double> analytic, numeric;
-  for (size_t i : idx) {
-    float& v = net.params().values[i];
-    const float old = v;
-    const float h = 2e-3f;
-    v = old + h;
-    const double fp = value();
-    v = old - h;
-    const double fm = value();
-    v = old;
-    numeric.push_back((fp - fm) / (2.0 * h));
-    analytic.push_back(grads[i]);
-  }
+  const std::vector<double> numeric = test::numeric_gradient<float>(value, net.params().values.data(), idx, 2e-3);
+  std::vector<double> analytic;
+  for (size_t i : idx) analytic.push_back(grads[i]);
   CHECK(test::relative_error(analytic, numeric) < 2e-2);
   // The predicted camera's principal point is c + f o for the head's output: with its last layer's weights at 0,
   // o is the bias.

@@ -247,12 +247,23 @@ TEST_CASE("framing: a channel of the input's size follows the crop (identity whe
 }
 
 TEST_CASE("the training reframing augmentation frames a render where recon frames it") {
-  // Defaults: the augmentation's framing is recon's (apps set it from TrainingFraming; the structs agree too).
+  // Defaults: the augmentation's framing is recon's (the apps set it with frame_like_recon; the structs agree too).
   const TrainingFraming tf;
   const ReframeAugmentSettings aug;
   CHECK(aug.extent == tf.extent);
   CHECK(aug.centre_dx == tf.centre_dx);
   CHECK(aug.centre_dy == tf.centre_dy);
+  ReframeAugmentSettings other;
+  other.prob = 0.3;
+  other.extent = 0.5;
+  other.centre_dy = -0.1;
+  other.camera = ZoomAugmentSettings::CameraFollow::kDistance;
+  frame_like_recon(other, tf);
+  CHECK(other.extent == tf.extent);
+  CHECK(other.centre_dx == tf.centre_dx);
+  CHECK(other.centre_dy == tf.centre_dy);
+  CHECK(other.prob == 0.3);
+  CHECK(other.camera == ZoomAugmentSettings::CameraFollow::kDistance);
   // A small off-centre object in a 137 px render, framed by recon (always reframed) and by the augmentation: the
   // object's box lands at the same size and place, to a pixel.
   const Image im = ellipse_image(137, 137, 45, 88, 14, 20, kWhite, true);
