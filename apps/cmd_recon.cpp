@@ -243,6 +243,9 @@ std::function<int()> setup_recon(CLI::App& app) {
     if (!estimate && !sidecar) fixed_camera = read_camera(o->cam);
     const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
                                          estimate ? require_model_path(o->pose_model, "--pose-model") : std::string());
+    if (rec->dense_extraction(o->s) && !o->s.dense && app.get_option("--safety")->count() > 0)
+      throw InvalidInput("--safety applies to the adaptive extraction; " + o->model +
+                         " is a binary-variant model, whose occupancy field is extracted on the dense grid");
     Image mask, missing;
     if (!o->mask.empty()) mask = read_image(o->mask);
     if (!o->missing.empty()) missing = read_image(o->missing);

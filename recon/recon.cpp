@@ -150,6 +150,10 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
 }
 
 
+bool Reconstructor::dense_extraction(const ReconSettings& settings) const {
+  return settings.dense || sdf_->config().variant == SdfVariant::kBinary;
+}
+
 Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings,
                                 int resolution, const std::string& what, MeshStats& stats) const {
   auto t = Clock::now();
@@ -176,7 +180,7 @@ Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& came
   es.iso = 0.0;
   es.safety = settings.safety;
   es.close_boundary = true;
-  const ExtractResult ex = settings.dense ? dense_extract(field, es) : adaptive_extract(field, es);
+  const ExtractResult ex = dense_extraction(settings) ? dense_extract(field, es) : adaptive_extract(field, es);
   stats.evaluations = ex.evaluations;
   stats.field = field_seconds;
   stats.extract = std::max(0.0, ex.seconds - field_seconds);
@@ -206,7 +210,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
   const int refine_res = std::min(settings.refine_resolution, settings.resolution);
   for (const int res : {settings.resolution, settings.refine_rounds > 0 ? refine_res : settings.resolution}) {
     require(res >= 3 && settings.coarse_resolution >= 2, what + ": resolution too small");
-    require(settings.dense || ((res - 1) % (settings.coarse_resolution - 1) == 0 &&
+    require(dense_extraction(settings) || ((res - 1) % (settings.coarse_resolution - 1) == 0 &&
                                power_of_two((res - 1) / (settings.coarse_resolution - 1))),
             what + ": (resolution - 1) / (coarse resolution - 1) must be a power of two, e.g. 65, 129, 257 with 17");
   }
@@ -272,6 +276,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
   r.mesh = reconstruct(full_input, r.camera, settings, settings.resolution, what, st);
   r.evaluations += st.evaluations;
   r.components_removed = st.components_removed;
+  r.dense = dense_extraction(settings);
   r.timings.encode = st.encode;
   r.timings.field = st.field;
   r.timings.extract = st.extract;

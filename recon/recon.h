@@ -39,7 +39,8 @@ struct ReconSettings {
   int coarse_resolution = 17;    ///< first level of the adaptive extraction
   double safety = 2.0;           ///< Lipschitz allowance of the network field (1 = trust it as a true SDF)
   double box_half = 1.05;        ///< sampled cube [-box_half, box_half]^3 (object frame: the unit sphere + 5%)
-  bool dense = false;            ///< evaluate the full grid instead (the baseline of `sdfkit bench recon`)
+  bool dense = false;            ///< evaluate the full grid instead (the baseline of `sdfkit bench recon`); always on
+                                ///< for a binary-variant model (Reconstructor::dense_extraction)
   double min_component_fraction = 0.3;  ///< DISN's clean-up: drop components under 30% of the largest (faces)
   bool preview = true;
   int preview_size = 192;        ///< side of each preview panel in pixels
@@ -94,6 +95,7 @@ struct ReconResult {
   std::vector<CameraRefineResult> refinements;  ///< one per refinement round (empty when off)
   long evaluations = 0;         ///< field evaluations
   int components_removed = 0;
+  bool dense = false;           ///< the full grid was evaluated (Reconstructor::dense_extraction)
   ReconTimings timings;
   Image preview;                ///< RGB, 4 panels side by side (empty when settings.preview is false)
 };
@@ -112,6 +114,10 @@ class Reconstructor {
 
   [[nodiscard]] const SdfNet& sdf() const { return *sdf_; }
   [[nodiscard]] bool has_pose() const { return pose_ != nullptr; }
+  /// Whether the extraction evaluates the full grid: settings.dense, or always for a binary-variant model, whose field
+  /// (-logit / sdf_scale) is no distance: the adaptive extraction's pruning bound |f| <= safety x half-diagonal does
+  /// not hold for it and drops whole parts.
+  [[nodiscard]] bool dense_extraction(const ReconSettings& settings) const;
 
   /// Reconstruct one image: frame it (settings.framing), then run_input. `camera` (null = estimate it) is a camera of
   /// the input image (a camera of another size is scaled to the image's size first). `what` names the input in

@@ -43,7 +43,7 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
   j["faces"] = r.mesh.num_faces();
   j["components_removed"] = r.components_removed;
   j["resolution"] = settings.resolution;
-  j["extraction"] = settings.dense ? "dense" : "adaptive";
+  j["extraction"] = r.dense ? "dense" : "adaptive";
   const ReconTimings& t = r.timings;
   j["seconds"] = {{"prepare", t.prepare}, {"pose", t.pose},       {"encode", t.encode},
                   {"field", t.field},     {"extract", t.extract}, {"cleanup", t.cleanup},

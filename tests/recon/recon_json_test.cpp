@@ -112,7 +112,7 @@ TEST_CASE("recon_result_json: a given camera, no refinement, no preview and the 
   r.refinements.clear();
   ReconSettings s;
   s.preview = false;
-  s.dense = true;
+  r.dense = true;  // the result says which extraction ran (a binary model forces the dense one)
   const Json j = recon_result_json(r, s, {"in.png", "in.obj", "unused.preview.png", "unused.mask.png"}, 400, 300);
   CHECK(j["camera_source"] == "given");
   CHECK(j["extraction"] == "dense");
