@@ -1,0 +1,179 @@
+#include "nets/seg_net.h"
+
+#include "core/error.h"
+#include "core/files.h"
+#include "nets/checkpoint.h"
+#include "nets/loss.h"
+#include "gradcheck.h"
+#include "scratch.h"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <filesystem>
+
+using namespace sdfkit;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// A tiny segmenter: 16 px input, two stages (8 and 4 px maps), two decoder layers.
+SegNetConfig tiny_config() {
+  SegNetConfig c;
+  c.size = 16;
+  c.encoder = {3, 4};
+  c.extra_convs = 1;
+  c.decoder = {5, 3};
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("SegNet: every parameter's gradient matches central differences (double)") {
+  for (const int extra : {0, 1}) {
+    SegNetConfig c = tiny_config();
+    c.extra_convs = extra;
+    SegNetT<double> net(c, true);
+    net.init(3);
+    Rng rng(11);
+    for (auto& v : net.params().values) v += 0.1 * rng.uniform(-1, 1);  // non-zero biases matter too
+    const TensorD x = test::random_tensor({2, 3, 16, 16}, 5, 0.0, 1.0);
+    const TensorD& y = net.forward(x, true);
+    CHECK(y.shape == Shape{2, 1, 16, 16});
+    const TensorD r = test::random_tensor(y.shape, 6);
+    net.params().zero_grad();
+    net.backward(r);
+    auto loss = [&] { return test::dot(r, net.forward(x, false)); };
+    // Indices spread over the whole buffer plus every parameter of the last 40 (the context term's and the head's).
+    std::vector<size_t> idx = test::some_indices(net.n_params(), 150, 7);
+    for (size_t i = net.n_params() - 40; i < net.n_params(); ++i) idx.push_back(i);
+    std::vector<double> analytic;
+    for (size_t i : idx) analytic.push_back(net.params().grads[i]);
+    const double err = test::relative_error(analytic, test::numeric_gradient(loss, net.params().values.data(), idx));
+    INFO("extra convs ", extra, " relative error ", err);
+    CHECK(err < 1e-6);
+  }
+}
+
+TEST_CASE("SegNet: the context vector reaches every pixel, and items do not mix") {
+  SegNetT<double> net(tiny_config(), true);
+  net.init(4);
+  TensorD x = test::random_tensor({2, 3, 16, 16}, 8, 0.0, 1.0);
+  const TensorD y0 = net.forward(x, false);
+  // Changing one corner pixel of item 1 changes item 1's logits far from it (through the global context) and leaves
+  // item 0's alone.
+  x[x.item_size() + 0] += 0.5;
+  const TensorD y1 = net.forward(x, false);
+  const int64_t n = y0.item_size();
+  for (int64_t i = 0; i < n; ++i) CHECK(y1[i] == y0[i]);
+  CHECK(y1[n + n - 1] != y0[n + n - 1]);
+}
+
+TEST_CASE("SegNet: the segmentation loss (BCE + soft IoU) matches closed forms and central differences") {
+  TensorD z = test::random_tensor({2, 1, 4, 4}, 21, -3, 3);
+  TensorD t = test::random_tensor({2, 1, 4, 4}, 22, 0, 1);
+  for (int64_t i = 0; i < t.size(); i += 3) t[i] = std::round(t[i]);
+  // Without the IoU term it is nets/loss.h's BCE exactly.
+  TensorD g0, g1;
+  CHECK(segmentation_loss(z, t, 0.0, &g0) == bce_with_logits_loss(z, t, &g1));
+  CHECK(g0.data == g1.data);
+  for (const double w : {0.5, 2.0}) {
+    TensorD g;
+    double bce = 0;
+    const double l = segmentation_loss(z, t, w, &g, &bce);
+    CHECK(bce == doctest::Approx(bce_with_logits_loss<double>(z, t, nullptr)).epsilon(1e-12));
+    // The IoU term by hand.
+    double iou = 0;
+    for (int b = 0; b < 2; ++b) {
+      double I = 0, U = 1;
+      for (int64_t i = 0; i < 16; ++i) {
+        const double p = 1 / (1 + std::exp(-z[b * 16 + i])), y = t[b * 16 + i];
+        I += p * y;
+        U += p + y - p * y;
+      }
+      iou += I / U / 2;
+    }
+    CHECK(l == doctest::Approx(bce + w * (1 - iou)).epsilon(1e-12));
+    std::vector<size_t> idx(static_cast<size_t>(z.size()));
+    for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
+    std::vector<double> a(g.data.begin(), g.data.end());
+    const auto num = test::numeric_gradient([&] { return segmentation_loss<double>(z, t, w, nullptr); }, z.ptr(), idx);
+    CHECK(test::relative_error(a, num) < 1e-7);
+  }
+  // Confident right answers cost almost nothing; confident wrong ones a lot.
+  TensorD labels({1, 1, 2, 2}), right({1, 1, 2, 2}), wrong({1, 1, 2, 2});
+  for (int i = 0; i < 4; ++i) {
+    labels[i] = i % 2;
+    right[i] = i % 2 ? 30 : -30;
+    wrong[i] = -right[i];
+  }
+  CHECK(segmentation_loss<double>(right, labels, 1.0, nullptr) < 0.34);  // the +1 of the union: 1 - 2/3
+  CHECK(segmentation_loss<double>(right, labels, 0.0, nullptr) < 1e-12);
+  CHECK(segmentation_loss<double>(wrong, labels, 1.0, nullptr) > 30);
+  CHECK_THROWS_AS(segmentation_loss<double>(right, TensorD({1, 1, 2, 3}), 1.0, nullptr), InvalidInput);
+}
+
+TEST_CASE("SegNet letterbox: geometry, edge replication, and the way back reproduces affine ramps") {
+  const Letterbox g = letterbox_geometry(200, 100, 128);
+  CHECK(g.width == 128);
+  CHECK(g.height == 64);
+  CHECK(g.x0 == 0);
+  CHECK(g.y0 == 32);
+  const Letterbox t = letterbox_geometry(90, 160, 128);
+  CHECK(t.height == 128);
+  CHECK(t.width == 72);
+  CHECK(t.x0 == 28);
+  CHECK_THROWS_AS(letterbox_geometry(0, 10, 128), InvalidInput);
+
+  // An affine ramp in x and y; the letterbox area-averages it (exact for an affine function away from the clamp).
+  Image img(200, 100, 1);
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 200; ++x) img.at(x, y) = static_cast<float>(0.002 * x + 0.003 * y + 0.1);
+  Letterbox gb;
+  const Image lb = letterbox(img, 128, &gb);
+  CHECK(lb.width == 128);
+  CHECK(lb.height == 128);
+  // Rows above and below the image repeat its first and last rows.
+  for (int x = 0; x < 128; x += 9) {
+    CHECK(lb.at(x, 0) == lb.at(x, gb.y0));
+    CHECK(lb.at(x, 127) == lb.at(x, gb.y0 + gb.height - 1));
+  }
+  const Image back = unletterbox(lb, gb);
+  CHECK(back.width == 200);
+  CHECK(back.height == 100);
+  for (int y = 3; y < 97; y += 7)
+    for (int x = 3; x < 197; x += 11) CHECK(back.at(x, y) == doctest::Approx(img.at(x, y)).epsilon(1e-5));
+  CHECK_THROWS_AS(unletterbox(img, gb), InvalidInput);
+}
+
+TEST_CASE("SegNet model file: round trip gives the same probabilities, foreign or damaged files are refused") {
+  const fs::path dir = test::scratch_dir("seg_net_model");
+  SegNetConfig c = tiny_config();
+  SegNet net(c, true);
+  net.init(9);
+  const std::string path = (dir / "seg.ckpt").string();
+  save_seg_model(path, net, {{"step", 3}});
+  Json training;
+  auto loaded = load_seg_model(path, &training);
+  CHECK(training.at("step").get<int>() == 3);
+  CHECK(loaded->architecture() == net.architecture());
+  Image photo(37, 23, 3);
+  Rng rng(2);
+  for (float& v : photo.data) v = static_cast<float>(rng.uniform());
+  const Image a = predict_foreground(net, photo), b = predict_foreground(*loaded, photo);
+  CHECK(a.width == 37);
+  CHECK(a.height == 23);
+  CHECK(a.channels == 1);
+  CHECK(a.data == b.data);
+  for (const float v : a.data) CHECK((v > 0 && v < 1));
+  // Another kind of checkpoint, and a truncated file.
+  Checkpoint other;
+  other.header["kind"] = "pose_model";
+  other.set_block("params", {1.f});
+  save_checkpoint((dir / "pose.ckpt").string(), other);
+  CHECK_THROWS_AS(load_seg_model((dir / "pose.ckpt").string()), IoError);
+  const std::string bytes = read_file(path);
+  write_text_atomic((dir / "cut.ckpt").string(), bytes.substr(0, bytes.size() / 2));
+  CHECK_THROWS_AS(load_seg_model((dir / "cut.ckpt").string()), IoError);
+  CHECK_THROWS_AS(SegNet(SegNetConfig{100, {16, 32, 64}, 1, {8}}, false), InvalidInput);  // 100 % 8 != 0
+}
