@@ -1,0 +1,363 @@
+#include "nets/seg_data.h"
+
+#include "core/error.h"
+#include "core/files.h"
+#include "core/random.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace sdfkit {
+namespace {
+using Rgb = std::array<float, 3>;
+constexpr double kPi = 3.14159265358979323846;
+}  // namespace
+
+std::string procedural_name(ProceduralBackground k) {
+  switch (k) {
+    case ProceduralBackground::kFlat: return "flat";
+    case ProceduralBackground::kGradient: return "gradient";
+    case ProceduralBackground::kNoise: return "noise";
+    case ProceduralBackground::kStripes: return "stripes";
+    case ProceduralBackground::kChecker: return "checker";
+  }
+  return "?";
+}
+
+Json SegCompositeSettings::to_json() const {
+  std::vector<std::string> k;
+  for (const auto kind : kinds) k.push_back(procedural_name(kind));
+  return {{"size", size},
+          {"procedural", procedural},
+          {"object_min", object_min},
+          {"object_max", object_max},
+          {"max_aspect", max_aspect},
+          {"overflow", overflow},
+          {"object_jitter", object_jitter},
+          {"background_jitter", background_jitter},
+          {"procedural_noise", procedural_noise},
+          {"kinds", k}};
+}
+
+void SegCompositeSettings::validate() const {
+  require(size >= 8 && size <= 1024, "segmenter data: the size must be 8..1024");
+  require(procedural >= 0 && procedural <= 1, "segmenter data: the procedural share must be in [0, 1]");
+  require(object_min > 0 && object_min <= object_max && object_max <= 1.5,
+          "segmenter data: need 0 < object-min <= object-max <= 1.5");
+  require(max_aspect >= 1 && max_aspect <= 8, "segmenter data: the largest aspect ratio must be in [1, 8]");
+  require(overflow >= 0 && overflow < 0.5, "segmenter data: the overflow must be in [0, 0.5)");
+  require(object_jitter >= 0 && object_jitter < 1 && background_jitter >= 0 && background_jitter < 1,
+          "segmenter data: jitters must be in [0, 1)");
+  require(!kinds.empty(), "segmenter data: no procedural background kind");
+  require(procedural_noise >= 0 && procedural_noise <= 0.5, "segmenter data: the procedural noise must be in [0, 0.5]");
+}
+
+// ----------------------------------------------------------------------------------------------- backgrounds
+namespace {
+
+bool has_image_extension(const fs::path& p) {
+  std::string e = p.extension().string();
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (const char* x : {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".exr", ".webp"})
+    if (e == x) return true;
+  return false;
+}
+
+}  // namespace
+
+std::vector<std::string> list_background_files(const std::string& source) {
+  std::vector<std::string> files;
+  std::error_code ec;
+  if (fs::is_directory(source, ec)) {
+    for (fs::recursive_directory_iterator it(source, fs::directory_options::skip_permission_denied, ec), end;
+         !ec && it != end; it.increment(ec))
+      if (it->is_regular_file(ec) && has_image_extension(it->path())) files.push_back(it->path().string());
+    if (ec) throw IoError(source + ": cannot list the background folder (" + ec.message() + ")");
+    std::sort(files.begin(), files.end());
+    if (files.empty()) throw IoError(source + ": no background images (png, jpg, tif, bmp, exr, webp) in the folder");
+    return files;
+  }
+  if (!fs::is_regular_file(source, ec)) throw IoError(source + ": no such background folder or list file");
+  const fs::path base = fs::path(source).parent_path();
+  std::istringstream in(read_file(source));
+  std::string line;
+  while (std::getline(in, line)) {
+    const auto b = line.find_first_not_of(" \t\r"), e = line.find_last_not_of(" \t\r");
+    if (b == std::string::npos || line[b] == '#') continue;
+    const fs::path p(line.substr(b, e - b + 1));
+    files.push_back((p.is_absolute() ? p : base / p).string());
+  }
+  if (files.empty()) throw IoError(source + ": the background list names no image");
+  return files;
+}
+
+BackgroundSet::BackgroundSet(const std::string& source, int max_side) {
+  require(max_side >= 8, "backgrounds: the largest side must be >= 8");
+  paths_ = list_background_files(source);
+  images_.resize(paths_.size());
+  tbb::parallel_for(size_t(0), paths_.size(), [&](size_t i) {
+    Image rgb = to_rgb(read_image(paths_[i]), 1.0f);
+    for (float& v : rgb.data) v = std::clamp(v, 0.0f, 1.0f);
+    const int longer = std::max(rgb.width, rgb.height);
+    if (longer > max_side) {
+      const double s = static_cast<double>(max_side) / longer;
+      rgb = resample_image(rgb, std::max(1, static_cast<int>(std::lround(rgb.width * s))),
+                           std::max(1, static_cast<int>(std::lround(rgb.height * s))));
+    }
+    images_[i] = std::move(rgb);
+  });
+}
+
+// ----------------------------------------------------------------------------------------------- composites
+namespace {
+
+float clamp01(double v) { return static_cast<float>(std::clamp(v, 0.0, 1.0)); }
+
+Rgb random_colour(Rng& rng) {
+  return {static_cast<float>(rng.uniform()), static_cast<float>(rng.uniform()), static_cast<float>(rng.uniform())};
+}
+
+/// A background colour: white-ish, near `near` (the object's mean colour), or random; a third each.
+Rgb pick_colour(Rng& rng, const Rgb& near) {
+  const uint64_t k = rng.below(3);
+  if (k == 0) {
+    const auto g = static_cast<float>(rng.uniform(0.88, 1.0));
+    return {g, g, g};
+  }
+  if (k == 1) {
+    Rgb c;
+    for (int i = 0; i < 3; ++i) c[static_cast<size_t>(i)] = clamp01(near[static_cast<size_t>(i)] + rng.uniform(-0.12, 0.12));
+    return c;
+  }
+  return random_colour(rng);
+}
+
+void fill_procedural(Image& bg, ProceduralBackground kind, const Rgb& near, double max_noise, Rng& rng) {
+  const int W = bg.width, H = bg.height;
+  const Rgb a = pick_colour(rng, near), b = pick_colour(rng, near);
+  auto put = [&](int x, int y, double t) {
+    for (int c = 0; c < 3; ++c)
+      bg.at(x, y, c) = clamp01(a[static_cast<size_t>(c)] + t * (b[static_cast<size_t>(c)] - a[static_cast<size_t>(c)]));
+  };
+  const double angle = rng.uniform(0, kPi), ca = std::cos(angle), sa = std::sin(angle);
+  switch (kind) {
+    case ProceduralBackground::kFlat:
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) put(x, y, 0);
+      break;
+    case ProceduralBackground::kGradient: {
+      // t runs from 0 to 1 across the canvas along the direction.
+      const double span = std::abs(ca) * W + std::abs(sa) * H;
+      const double lo = std::min({0.0, ca * W, sa * H, ca * W + sa * H});
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) put(x, y, ((x + 0.5) * ca + (y + 0.5) * sa - lo) / span);
+      break;
+    }
+    case ProceduralBackground::kNoise: {
+      // Two octaves of value noise on lattices of cell `cell` and cell / 2.5, smoothstep-interpolated.
+      const double cell = std::exp(rng.uniform(std::log(3.0), std::log(64.0)));
+      std::vector<double> t(static_cast<size_t>(W) * H, 0.0);
+      double weight = 0.65;
+      for (const double c : {cell, std::max(1.5, cell / 2.5)}) {
+        const int gw = static_cast<int>(W / c) + 2, gh = static_cast<int>(H / c) + 2;
+        std::vector<double> lat(static_cast<size_t>(gw) * gh);
+        for (double& v : lat) v = rng.uniform();
+        for (int y = 0; y < H; ++y)
+          for (int x = 0; x < W; ++x) {
+            const double u = (x + 0.5) / c, v = (y + 0.5) / c;
+            const int i = static_cast<int>(u), j = static_cast<int>(v);
+            double fu = u - i, fv = v - j;
+            fu = fu * fu * (3 - 2 * fu);
+            fv = fv * fv * (3 - 2 * fv);
+            auto L = [&](int p, int q) { return lat[static_cast<size_t>(q) * gw + p]; };
+            const double top = L(i, j) + fu * (L(i + 1, j) - L(i, j));
+            const double bot = L(i, j + 1) + fu * (L(i + 1, j + 1) - L(i, j + 1));
+            t[static_cast<size_t>(y) * W + x] += weight * (top + fv * (bot - top));
+          }
+        weight = 0.35;
+      }
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) put(x, y, t[static_cast<size_t>(y) * W + x]);
+      break;
+    }
+    case ProceduralBackground::kStripes: {
+      const double period = rng.uniform(4, 40);
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+          const double s = ((x + 0.5) * ca + (y + 0.5) * sa) / period;
+          put(x, y, s - std::floor(s) < 0.5 ? 0 : 1);
+        }
+      break;
+    }
+    case ProceduralBackground::kChecker: {
+      const double cell = rng.uniform(4, 40);
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+          const double u = ((x + 0.5) * ca + (y + 0.5) * sa) / cell, v = (-(x + 0.5) * sa + (y + 0.5) * ca) / cell;
+          const long k = static_cast<long>(std::floor(u)) + static_cast<long>(std::floor(v));
+          put(x, y, (k & 1) ? 1 : 0);
+        }
+      break;
+    }
+  }
+  const double sigma = rng.uniform(0, max_noise);
+  Rng noise(rng.next());
+  if (sigma > 0)
+    for (float& v : bg.data) v = clamp01(v + sigma * noise.normal());
+}
+
+/// A crop of a photo, resampled to the canvas and jittered.
+void fill_photo(Image& bg, const Image& photo, double jitter, Rng& rng) {
+  const int W = bg.width, H = bg.height, PW = photo.width, PH = photo.height;
+  const double aspect = static_cast<double>(W) / H;
+  const double cw_max = std::min<double>(PW, PH * aspect);
+  const double cw = cw_max * rng.uniform(0.4, 1.0), ch = cw / aspect;
+  const double ox = rng.uniform(0, std::max(0.0, PW - cw)), oy = rng.uniform(0, std::max(0.0, PH - ch));
+  const bool flip = rng.uniform() < 0.5;
+  const double bright = rng.uniform(1 - jitter, 1 + jitter);
+  Rgb tint;
+  for (float& t : tint) t = static_cast<float>(bright * rng.uniform(1 - jitter / 3, 1 + jitter / 3));
+  const double sx = cw / W, sy = ch / H;
+  const int nx = std::clamp(static_cast<int>(std::ceil(sx)), 1, 4), ny = std::clamp(static_cast<int>(std::ceil(sy)), 1, 4);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int xs = flip ? W - 1 - x : x;
+      double acc[3] = {0, 0, 0};
+      for (int j = 0; j < ny; ++j)
+        for (int i = 0; i < nx; ++i) {
+          const double fx = std::clamp(ox + (xs + (i + 0.5) / nx) * sx - 0.5, 0.0, PW - 1.0);
+          const double fy = std::clamp(oy + (y + (j + 0.5) / ny) * sy - 0.5, 0.0, PH - 1.0);
+          const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+          const int x1 = std::min(x0 + 1, PW - 1), y1 = std::min(y0 + 1, PH - 1);
+          const double ax = fx - x0, ay = fy - y0;
+          for (int c = 0; c < 3; ++c)
+            acc[c] += (1 - ay) * ((1 - ax) * photo.at(x0, y0, c) + ax * photo.at(x1, y0, c)) +
+                      ay * ((1 - ax) * photo.at(x0, y1, c) + ax * photo.at(x1, y1, c));
+        }
+      for (int c = 0; c < 3; ++c) bg.at(x, y, c) = clamp01(acc[c] / (nx * ny) * tint[static_cast<size_t>(c)]);
+    }
+}
+
+}  // namespace
+
+SegSample make_composite(const Image& render, const BackgroundSet* backgrounds, const SegCompositeSettings& s,
+                         uint64_t seed, uint64_t stream) {
+  require(!render.empty(), "segmenter data: empty render");
+  Rng rng = Rng::derived(seed, stream);
+  const int S = s.size;
+  // Premultiplied RGBA of the render and its alpha box.
+  const int RW = render.width, RH = render.height;
+  const bool has_alpha = render.channels == 2 || render.channels == 4;
+  const Image rgb = to_rgb(render, 0.0f);  // premultiplied: composited on black
+  std::vector<float> alpha(static_cast<size_t>(RW) * RH, 1.0f);
+  if (has_alpha)
+    for (int y = 0; y < RH; ++y)
+      for (int x = 0; x < RW; ++x)
+        alpha[static_cast<size_t>(y) * RW + x] = std::clamp(render.at(x, y, render.channels - 1), 0.0f, 1.0f);
+  int bx0 = RW, by0 = RH, bx1 = -1, by1 = -1;
+  double mean[3] = {0, 0, 0}, mass = 0;
+  for (int y = 0; y < RH; ++y)
+    for (int x = 0; x < RW; ++x) {
+      const float a = alpha[static_cast<size_t>(y) * RW + x];
+      if (a <= 0.01f) continue;
+      bx0 = std::min(bx0, x), by0 = std::min(by0, y), bx1 = std::max(bx1, x), by1 = std::max(by1, y);
+      for (int c = 0; c < 3; ++c) mean[c] += std::clamp(rgb.at(x, y, c), 0.0f, 1.0f);
+      mass += a;
+    }
+  const bool empty = bx1 < 0;
+  if (empty) bx0 = by0 = 0, bx1 = RW - 1, by1 = RH - 1;
+
+  // 1. The canvas.
+  const double aspect = std::exp(rng.uniform(0, std::log(s.max_aspect)));
+  const bool landscape = rng.uniform() < 0.5;
+  const int shorter = std::clamp(static_cast<int>(std::lround(S / aspect)), 1, S);
+  const int W = landscape ? S : shorter, H = landscape ? shorter : S;
+  // 2. The object's size and place (pixel-edge coordinates; its box [bx0, bx1 + 1) x [by0, by1 + 1)).
+  const double bw = bx1 + 1 - bx0, bh = by1 + 1 - by0;
+  // Capped so that the box also fits the canvas's shorter side (at object_max of it): a tall object on a wide
+  // canvas is not cut in half.
+  const double k = std::min({rng.uniform(s.object_min, s.object_max) * S / std::max(bw, bh), s.object_max * W / bw,
+                             s.object_max * H / bh});
+  auto place = [&](double size, int canvas) {
+    double lo = size / 2 - s.overflow * size, hi = canvas - size / 2 + s.overflow * size;
+    if (lo > hi) lo = hi = canvas / 2.0;
+    return rng.uniform(lo, hi);
+  };
+  const double dx = place(k * bw, W), dy = place(k * bh, H);
+  const double mx = 0.5 * (bx0 + bx1 + 1), my = 0.5 * (by0 + by1 + 1);
+  // 3. Object jitter.
+  const double bright = rng.uniform(1 - s.object_jitter, 1 + s.object_jitter);
+  Rgb gain;
+  for (float& g : gain) g = static_cast<float>(bright * rng.uniform(1 - s.object_jitter / 2, 1 + s.object_jitter / 2));
+  Rgb near = {1, 1, 1};
+  if (mass > 0)
+    for (int c = 0; c < 3; ++c) near[static_cast<size_t>(c)] = clamp01(mean[c] / mass * gain[static_cast<size_t>(c)]);
+  // 4. The background.
+  Image bg(W, H, 3);
+  SegSample out;
+  const bool photo = backgrounds && !backgrounds->empty() && !(rng.uniform() < s.procedural);
+  if (photo) {
+    const size_t i = static_cast<size_t>(rng.below(backgrounds->size()));
+    fill_photo(bg, backgrounds->image(i), s.background_jitter, rng);
+    out.background = "photo:" + std::to_string(i);
+  } else {
+    const ProceduralBackground kind = s.kinds[static_cast<size_t>(rng.below(s.kinds.size()))];
+    fill_procedural(bg, kind, near, s.procedural_noise, rng);
+    out.background = procedural_name(kind);
+  }
+
+  // The object resampled onto the canvas: canvas point q -> render point m + (q - d) / k.
+  Image canvas(W, H, 3), label(W, H, 1);
+  const int n = std::clamp(static_cast<int>(std::ceil(1.0 / k)), 1, 4);
+  auto sample = [&](double fx, double fy, float px[4]) {  // bilinear in pixel-centre coordinates, 0 outside
+    px[0] = px[1] = px[2] = px[3] = 0;
+    const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
+    const double ax = fx - x0, ay = fy - y0;
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i) {
+        const int x = x0 + i, y = y0 + j;
+        if (x < 0 || y < 0 || x >= RW || y >= RH) continue;
+        const auto w = static_cast<float>((i ? ax : 1 - ax) * (j ? ay : 1 - ay));
+        for (int c = 0; c < 3; ++c) px[c] += w * rgb.at(x, y, c);
+        px[3] += w * alpha[static_cast<size_t>(y) * RW + x];
+      }
+  };
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      float acc[4] = {0, 0, 0, 0};
+      if (!empty || has_alpha)
+        for (int j = 0; j < n; ++j)
+          for (int i = 0; i < n; ++i) {
+            const double qx = x + (i + 0.5) / n, qy = y + (j + 0.5) / n;
+            float px[4];
+            sample(mx + (qx - dx) / k - 0.5, my + (qy - dy) / k - 0.5, px);
+            for (int c = 0; c < 4; ++c) acc[c] += px[c];
+          }
+      const float inv = 1.0f / static_cast<float>(n * n);
+      const float a = std::clamp(acc[3] * inv, 0.0f, 1.0f);
+      label.at(x, y) = a;
+      for (int c = 0; c < 3; ++c) {
+        const float obj = std::clamp(acc[c] * inv * gain[static_cast<size_t>(c)], 0.0f, a);
+        canvas.at(x, y, c) = obj + (1.0f - a) * bg.at(x, y, c);
+      }
+    }
+  Letterbox g;
+  out.image = letterbox(canvas, S, &g);
+  out.label = letterbox(label, S);
+  out.canvas_x0 = g.x0;
+  out.canvas_y0 = g.y0;
+  out.canvas_width = g.width;
+  out.canvas_height = g.height;
+  return out;
+}
+
+}  // namespace sdfkit

@@ -1,0 +1,93 @@
+// Training data of the foreground segmenter (`sdfkit train seg`): renders of a prepared dataset (views/NN.png, RGBA,
+// the object's alpha is the label) composited onto backgrounds at random places, sizes and canvas shapes, as photos
+// show objects.
+//
+// One composite (make_composite), every random choice drawn in a fixed order from Rng::derived(seed, stream) only:
+//  1. canvas: aspect ratio log-uniform in [1, max_aspect], landscape or portrait (coin); its longer side is the
+//     network size S, so the letterbox only pads (the composite is made at the resolution the network reads);
+//  2. object: the render's alpha box scaled so that its longer side is U(object_min, object_max) x the canvas's longer
+//     side (capped so that it fits the canvas's shorter side at object_max of it), its centre uniform over the places that keep the box inside the canvas up to `overflow` of its size on
+//     each side (objects may touch or cross the border a little); resampled from the premultiplied render
+//     (bilinear, up to 4 x 4 samples per pixel when shrinking);
+//  3. object photometric jitter: brightness U(1 - j, 1 + j) times a tint U(1 - j/2, 1 + j/2) per channel;
+//  4. background: with probability `procedural` (always, without background images) a procedural one, else a random
+//     crop (aspect of the canvas, 40-100% of the largest that fits, uniform place, mirrored on a coin) of a random
+//     background image, with brightness U(1 - b, 1 + b) and a tint U(1 - b/3, 1 + b/3) per channel. Procedural
+//     kinds (uniform): flat colour (white-ish, near the object's mean colour, or random: a third each), linear
+//     gradient between two colours, two-octave value noise at a random scale, stripes at a random angle and period,
+//     a rotated checkerboard; Gaussian pixel noise of U(0, procedural_noise) on top.
+// image = object (premultiplied, jittered) + (1 - alpha) background; label = the resampled alpha; both letterboxed.
+#pragma once
+
+#include "camera/image.h"
+#include "core/json.h"
+#include "nets/seg_net.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace sdfkit {
+
+/// Procedural background kinds (SegCompositeSettings::kinds).
+enum class ProceduralBackground { kFlat, kGradient, kNoise, kStripes, kChecker };
+std::string procedural_name(ProceduralBackground k);
+
+struct SegCompositeSettings {
+  int size = 128;               ///< S: the network input side (the canvas's longer side)
+  double procedural = 0.3;      ///< probability of a procedural background (1 without background images)
+  double object_min = 0.2;      ///< object box longer side / canvas longer side, smallest
+  double object_max = 0.95;     ///< largest
+  double max_aspect = 16.0 / 9.0;  ///< canvas aspect ratios in [1, max_aspect], either orientation
+  double overflow = 0.05;       ///< share of the object's box that may lie outside the canvas on a side
+  double object_jitter = 0.25;  ///< j of the object's brightness/tint
+  double background_jitter = 0.25;  ///< b of a photo background's brightness/tint
+  double procedural_noise = 0.03;   ///< largest standard deviation of a procedural background's pixel noise
+  /// Procedural kinds drawn from (uniformly); all by default.
+  std::vector<ProceduralBackground> kinds = {ProceduralBackground::kFlat, ProceduralBackground::kGradient,
+                                             ProceduralBackground::kNoise, ProceduralBackground::kStripes,
+                                             ProceduralBackground::kChecker};
+
+  [[nodiscard]] Json to_json() const;
+  /// InvalidInput naming the setting out of range.
+  void validate() const;
+};
+
+/// Background photographs, loaded once and shrunk (area averaging) so that their longer side is at most
+/// `max_side` px (the composites are made at the network's size, so more resolution is never read).
+class BackgroundSet {
+ public:
+  BackgroundSet() = default;
+  /// `source`: a folder (every image in it and its sub-folders with an extension OpenImageIO reads: png, jpg, jpeg,
+  /// tif, tiff, bmp, exr, webp; sorted by path) or a list file (.txt/.lst: one path per line, relative to the list's
+  /// folder; blank lines and '#' comments skipped). IoError naming the folder/list when it is missing or holds no
+  /// image, or naming the image that cannot be read.
+  explicit BackgroundSet(const std::string& source, int max_side = 256);
+  [[nodiscard]] size_t size() const { return images_.size(); }
+  [[nodiscard]] bool empty() const { return images_.empty(); }
+  [[nodiscard]] const Image& image(size_t i) const { return images_.at(i); }
+  [[nodiscard]] const std::string& path(size_t i) const { return paths_.at(i); }
+
+ private:
+  std::vector<Image> images_;  // RGB
+  std::vector<std::string> paths_;
+};
+
+/// The image files of a background folder or list (BackgroundSet's rules), without reading them.
+std::vector<std::string> list_background_files(const std::string& source);
+
+/// One composite: the letterboxed S x S RGB image, its S x S label (object coverage in [0, 1]), the canvas's place in
+/// the letterbox, and what the background was.
+struct SegSample {
+  Image image;  ///< S x S x 3
+  Image label;  ///< S x S x 1
+  int canvas_x0 = 0, canvas_y0 = 0, canvas_width = 0, canvas_height = 0;
+  std::string background;  ///< "flat", "gradient", "noise", "stripes", "checker", or "photo:<index>"
+};
+
+/// Composite `render` (RGBA; RGB or grey is taken as opaque) onto a background, drawing every choice from
+/// Rng::derived(seed, stream) (see the header comment). `backgrounds` may be null or empty (procedural only).
+SegSample make_composite(const Image& render, const BackgroundSet* backgrounds, const SegCompositeSettings& settings,
+                         uint64_t seed, uint64_t stream);
+
+}  // namespace sdfkit
