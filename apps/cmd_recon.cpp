@@ -8,6 +8,7 @@
 #include "core/json.h"
 #include "core/random.h"
 #include "core/mesh_io.h"
+#include "nets/seg_net.h"
 #include "recon/recon.h"
 #include "recon/recon_json.h"
 
@@ -79,13 +80,14 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
   for (const char* f : {"--pose-model", "--flip-check", "--pose-distances"})
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
-  for (const char* f : {"--segment", "--box"})
+  for (const char* f : {"--segment", "--box", "--seg-model"})
     if (mask && given(f)) throw InvalidInput(std::string(f) + " does not apply with --mask (the mask gives the object)");
 }
 
 std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
-    std::string input, out, model, pose_model, cam = "est", mask, format = "obj", segment = "auto", framing = "auto", box;
+    std::string input, out, model, pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto",
+                framing = "auto", box;
     std::string pose_distances = "off";
     ReconSettings s;
     bool json = false, no_preview = false;
@@ -98,6 +100,7 @@ std::function<int()> setup_recon(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   o->model = default_model_path("sdf.ckpt");
   o->pose_model = default_model_path("pose.ckpt");
+  o->seg_model = default_model_path("seg.ckpt");
   app.add_option("input", o->input,
                  "an image (PNG/JPG/EXR/TIFF/BMP, any size and aspect ratio, grey, RGB or RGBA), a folder of images, "
                  "or a .txt/.lst list of image paths. The object is found (alpha, --mask, a plain background, or "
@@ -115,11 +118,16 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_option("--pose-model", o->pose_model, "camera pose network model (used with --cam est; default: pose.ckpt there)")
       ->capture_default_str();
   app.add_option("--segment", o->segment,
-                 "without alpha or --mask: auto = a plain background detected from the image border, else GrabCut; "
-                 "grabcut = always GrabCut (seeded from the border or --box); none = use the image as it is "
+                 "without alpha or --mask: auto = a plain background detected from the image border, else the "
+                 "segmenter network when its model (--seg-model) exists, else GrabCut; net = always the segmenter "
+                 "network; grabcut = always GrabCut (seeded from the border or --box); none = use the image as it is "
                  "(non-white pixels are the object)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"auto", "grabcut", "none"}));
+      ->check(CLI::IsMember({"auto", "grabcut", "net", "none"}));
+  app.add_option("--seg-model", o->seg_model,
+                 "segmenter model (sdfkit train seg) of --segment net and auto (default: seg.ckpt of the model "
+                 "folder; auto falls back to GrabCut when it does not exist)")
+      ->capture_default_str();
   app.add_option("--box", o->box, "X,Y,W,H: the object lies inside this pixel box (GrabCut's seed; outside is background)");
   app.add_option("--framing", o->framing,
                  "auto = keep an image framed like the training renders (square, object centred at their scale), "
@@ -230,6 +238,20 @@ std::function<int()> setup_recon(CLI::App& app) {
     o->s.preview = !o->no_preview;
     o->s.refine_joint = o->refine_mode == "joint";
     o->s.framing.segment = parse_segmentation(o->segment);
+    if (app.get_option("--seg-model")->count() > 0 &&
+        (o->s.framing.segment == Segmentation::kGrabCut || o->s.framing.segment == Segmentation::kNone))
+      throw InvalidInput("--seg-model applies with --segment net or auto");
+    if (o->mask.empty() && (o->s.framing.segment == Segmentation::kNet ||
+                            (o->s.framing.segment == Segmentation::kAuto && !o->seg_model.empty() &&
+                             (app.get_option("--seg-model")->count() > 0 || fs::exists(o->seg_model))))) {
+      // One network for every image; recon's parallel jobs take turns (a forward of a 128 px image is milliseconds).
+      auto net = std::shared_ptr<SegNet>(load_seg_model(require_model_path(o->seg_model, "--seg-model")));
+      auto lock = std::make_shared<std::mutex>();
+      o->s.framing.segmenter = [net, lock](const Image& rgb) {
+        const std::lock_guard<std::mutex> guard(*lock);
+        return predict_foreground(*net, rgb);
+      };
+    }
     o->s.framing.reframe = parse_reframing(o->framing);
     if (o->pose_distances != "off")
       std::tie(o->s.pose_distance_min, o->s.pose_distance_max) =

@@ -240,7 +240,8 @@ Segmentation parse_segmentation(const std::string& name) {
   if (name == "auto") return Segmentation::kAuto;
   if (name == "none") return Segmentation::kNone;
   if (name == "grabcut") return Segmentation::kGrabCut;
-  throw InvalidInput("segmentation '" + name + "': use auto, none or grabcut");
+  if (name == "net") return Segmentation::kNet;
+  throw InvalidInput("segmentation '" + name + "': use auto, none, grabcut or net");
 }
 
 std::string segmentation_name(Segmentation s) {
@@ -248,6 +249,7 @@ std::string segmentation_name(Segmentation s) {
     case Segmentation::kAuto: return "auto";
     case Segmentation::kNone: return "none";
     case Segmentation::kGrabCut: return "grabcut";
+    case Segmentation::kNet: return "net";
   }
   return "auto";
 }
@@ -342,6 +344,23 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
     if (st.segment == Segmentation::kAuto && plain) {
       f.mask = plain_background_mask(rgb, border.colour, st.background_tolerance);
       f.mask_source = "plain-background";
+    } else if (st.segment == Segmentation::kNet || (st.segment == Segmentation::kAuto && st.segmenter)) {
+      if (!st.segmenter) throw InvalidInput(what + ": --segment net needs a segmenter model (--seg-model)");
+      require(st.segmenter_high > st.segmenter_low, "framing: the segmenter's ramp needs low < high");
+      const Image p = st.segmenter(rgb);
+      if (p.width != W || p.height != H || p.channels != 1)
+        throw InvalidInput(what + ": the segmenter answered with a map of another size");
+      f.mask = Image(W, H, 1);
+      const double span = st.segmenter_high - st.segmenter_low;
+      for (size_t i = 0; i < p.data.size(); ++i) {
+        const double v = std::isfinite(p.data[i]) ? (p.data[i] - st.segmenter_low) / span : 0.0;
+        f.mask.data[i] = static_cast<float>(std::clamp(v, 0.0, 1.0));
+      }
+      f.mask_source = "net";
+      if (st.segment == Segmentation::kAuto)
+        f.warnings.push_back("the background is not plain (" + fmt(100 * border.plain_share, 0) +
+                             "% of the border is one colour): the object was segmented by the segmenter network; "
+                             "check the mask");
     } else {
       PixelBox rect;
       if (st.box) {

@@ -11,6 +11,7 @@
 #include "camera/image.h"
 #include "nets/dataset.h"
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,11 +20,13 @@ namespace sdfkit {
 
 /// How the object is told from the background when the input has no alpha and no mask is given.
 enum class Segmentation {
-  kAuto,     ///< a plain background (detected from the image border) when there is one, else GrabCut
+  kAuto,     ///< a plain background (detected from the image border) when there is one, else the segmenter network
+             ///< when FramingSettings::segmenter is set, else GrabCut
   kNone,     ///< none: the image is used as it is (its non-white pixels are the object)
   kGrabCut,  ///< OpenCV's GrabCut seeded from the border (or from FramingSettings::box)
+  kNet,      ///< the segmenter network (FramingSettings::segmenter, nets/seg_net.h)
 };
-/// "auto", "none", "grabcut" <-> Segmentation; InvalidInput for another name.
+/// "auto", "none", "grabcut", "net" <-> Segmentation; InvalidInput for another name.
 Segmentation parse_segmentation(const std::string& name);
 std::string segmentation_name(Segmentation s);
 
@@ -81,12 +84,19 @@ struct FramingSettings {
   /// GrabCut runs on the image shrunk to at most this many pixels on its longer side.
   int grabcut_max_side = 400;
   int grabcut_iterations = 5;
+  /// The segmenter network (`recon --segment net`, nets/seg_net.h predict_foreground): the foreground probability
+  /// of every pixel of an RGB image (1 channel, the image's size). Used by kNet, and by kAuto instead of GrabCut
+  /// when set. Called from several threads at once when recon runs images in parallel. Empty = no network.
+  std::function<Image(const Image& rgb)> segmenter;
+  /// The network's probability p becomes the coverage clamp((p - lo) / (hi - lo), 0, 1): over 0.5 exactly where
+  /// p > 0.5 (the object's pixels), soft edges kept between lo and hi.
+  double segmenter_low = 0.3, segmenter_high = 0.7;
 };
 
 struct FramedInput {
   Image image;      ///< 137 x 137 RGBA: the crop, object alpha = mask (composited on white by network_image)
   Image mask;       ///< input size, 1 channel: object coverage in [0, 1] (what was used)
-  std::string mask_source;  ///< "alpha", "mask", "plain-background", "grabcut", "none"
+  std::string mask_source;  ///< "alpha", "mask", "plain-background", "grabcut", "net", "none"
   double x0 = 0, y0 = 0, side = 0;  ///< the crop in input pixel coordinates
   bool reframed = false;            ///< false: the whole (square-padded) image
   PixelBox object_box;              ///< the object's box in input pixels
