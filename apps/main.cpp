@@ -189,7 +189,7 @@ int main(int argc, char** argv) {
   // "bench prep" registers `prep` under the group `bench`; groups are created on first use.
   const std::map<std::string, std::string> group_summaries = {
       {"bench", "speed-against-error studies (results go to docs/BENCHMARKS.md)"},
-      {"train", "train the pose or the SDF network"}};
+      {"train", "train the pose network, the SDF network or the foreground segmenter"}};
   for (auto& cmd : commands) {
     CLI::App* parent = &app;
     std::string leaf = cmd.name;
