@@ -4,6 +4,7 @@
 #include "core/files.h"
 #include "core/json.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -54,6 +55,32 @@ void Checkpoint::set_block(const std::string& name, std::vector<float> values) {
       return;
     }
   blocks.emplace_back(name, std::move(values));
+}
+
+Checkpoint training_state_checkpoint(const std::string& kind, const Json& architecture, const Json& settings,
+                                     const TrainingProgress& progress, const float* params, size_t n,
+                                     const Optimizer& opt) {
+  Checkpoint ck;
+  ck.header["kind"] = kind;
+  ck.header["architecture"] = architecture;
+  ck.header["settings"] = settings;
+  ck.header["step"] = progress.step;
+  ck.header["seconds"] = progress.seconds;
+  ck.header["curve"] = progress.curve;
+  ck.set_block("params", std::vector<float>(params, params + n));
+  ck.put_optimizer(opt);
+  return ck;
+}
+
+TrainingProgress restore_training_state(const Checkpoint& checkpoint, float* params, size_t n, Optimizer& opt) {
+  const auto& p = checkpoint.block("params", static_cast<long>(n));
+  std::copy(p.begin(), p.end(), params);
+  checkpoint.get_optimizer(opt);
+  TrainingProgress progress;
+  progress.step = checkpoint.header.at("step").get<long>();
+  progress.seconds = checkpoint.header.value("seconds", 0.0);
+  progress.curve = checkpoint.header.value("curve", Json::array());
+  return progress;
 }
 
 void Checkpoint::put_optimizer(const Optimizer& opt) {

@@ -43,6 +43,22 @@ void save_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 /// IoError naming the file on a missing, truncated, corrupt or foreign file.
 Checkpoint load_checkpoint(const std::string& path);
 
+/// The progress a resumable training state records beside its parameters and optimiser.
+struct TrainingProgress {
+  long step = 0;
+  double seconds = 0;            ///< training time so far
+  Json curve = Json::array();    ///< the loss curve's rows so far
+};
+
+/// A resumable training state: header kind, architecture, settings, step, seconds and curve; blocks "params" (the
+/// n values) and the optimiser's.
+Checkpoint training_state_checkpoint(const std::string& kind, const Json& architecture, const Json& settings,
+                                     const TrainingProgress& progress, const float* params, size_t n,
+                                     const Optimizer& opt);
+/// Restore what training_state_checkpoint stored (after the caller's header checks): the n parameters, the
+/// optimiser, and the progress. IoError naming the file when the parameter count differs.
+TrainingProgress restore_training_state(const Checkpoint& checkpoint, float* params, size_t n, Optimizer& opt);
+
 /// InvalidInput unless header[key] equals expected (e.g. the architecture the caller is about to build);
 /// the message names the file and the first differing JSON path.
 void require_header_match(const Checkpoint& checkpoint, const std::string& key, const Json& expected,

@@ -275,12 +275,10 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     if (stored.is_object() && !stored.contains("symmetries") && s.symmetry_tag.empty()) expected.erase("symmetries");
     if (stored.is_object() && !stored.contains("zoom") && !s.zoom.enabled()) expected.erase("zoom");
     require_header_match(ck, "settings", expected, state_path);
-    const auto& p = ck.block("params", static_cast<long>(net.n_params()));
-    std::copy(p.begin(), p.end(), net.params().values.begin());
-    ck.get_optimizer(opt);
-    step = ck.header.at("step").get<long>();
-    prior_seconds = ck.header.value("seconds", 0.0);
-    curve = ck.header.value("curve", Json::array());
+    TrainingProgress done = restore_training_state(ck, net.params().values.data(), net.n_params(), opt);
+    step = done.step;
+    prior_seconds = done.seconds;
+    curve = std::move(done.curve);
   }
   result.start_step = step;
 
@@ -370,16 +368,9 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
                        {"val_d3d", ev.val.d3d}, {"val_d2d", ev.val.d2d}, {"settings", settings_json(s)},
                        {"data", s.data},     {"val_split", s.val_split}};
       // Resumable state (parameters + optimizer + curve), then the small model file.
-      Checkpoint ck;
-      ck.header["kind"] = "pose_training_state";
-      ck.header["architecture"] = net.architecture();
-      ck.header["settings"] = settings_json(s);
-      ck.header["step"] = step;
-      ck.header["seconds"] = ev.seconds;
-      ck.header["curve"] = curve;
-      ck.set_block("params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
-      ck.put_optimizer(opt);
-      save_checkpoint(state_path, ck);
+      save_checkpoint(state_path, training_state_checkpoint("pose_training_state", net.architecture(), settings_json(s),
+                                                            {step, ev.seconds, curve}, net.params().values.data(),
+                                                            net.n_params(), opt));
       save_pose_model(s.out, net, training);
       write_curve(result.csv, result.plot, curve);
     } else {

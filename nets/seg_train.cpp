@@ -202,12 +202,10 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
       throw IoError(state_path + ": not a segmenter training state");
     require_header_match(ck, "architecture", net.architecture(), state_path);
     require_header_match(ck, "settings", settings_record, state_path);
-    const auto& p = ck.block("params", static_cast<long>(net.n_params()));
-    std::copy(p.begin(), p.end(), net.params().values.begin());
-    ck.get_optimizer(opt);
-    step = ck.header.at("step").get<long>();
-    prior_seconds = ck.header.value("seconds", 0.0);
-    curve = ck.header.value("curve", Json::array());
+    TrainingProgress done = restore_training_state(ck, net.params().values.data(), net.n_params(), opt);
+    step = done.step;
+    prior_seconds = done.seconds;
+    curve = std::move(done.curve);
   }
   result.start_step = step;
 
@@ -278,16 +276,9 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
       const Json training = {{"step", step},         {"seconds", ev.seconds}, {"val_loss", ev.val.loss},
                              {"val_iou", ev.val.iou}, {"settings", settings_record}, {"data", s.data},
                              {"val_split", s.val_split}};
-      Checkpoint ck;
-      ck.header["kind"] = "seg_training_state";
-      ck.header["architecture"] = net.architecture();
-      ck.header["settings"] = settings_record;
-      ck.header["step"] = step;
-      ck.header["seconds"] = ev.seconds;
-      ck.header["curve"] = curve;
-      ck.set_block("params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
-      ck.put_optimizer(opt);
-      save_checkpoint(state_path, ck);
+      save_checkpoint(state_path, training_state_checkpoint("seg_training_state", net.architecture(), settings_record,
+                                                            {step, ev.seconds, curve}, net.params().values.data(),
+                                                            net.n_params(), opt));
       save_seg_model(s.out, net, training);
       write_curve(result.csv, result.plot, curve);
     } else {
