@@ -9,35 +9,10 @@
 
 #include <cstdio>
 #include <iostream>
-#include <sstream>
 #include <tuple>
 
 namespace sdfkit::app {
 namespace {
-
-std::vector<int> parse_widths(const std::string& s, const std::string& flag) {
-  std::vector<int> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    try {
-      size_t used = 0;
-      const int v = std::stoi(item, &used);
-      if (used != item.size() || v <= 0) throw std::invalid_argument(item);
-      out.push_back(v);
-    } catch (const std::exception&) {
-      throw InvalidInput(flag + " '" + s + "': expected positive integers separated by commas");
-    }
-  }
-  if (out.empty()) throw InvalidInput(flag + ": empty list");
-  return out;
-}
-
-std::string join(const std::vector<int>& v) {
-  std::string s;
-  for (size_t i = 0; i < v.size(); ++i) s += (i ? "," : "") + std::to_string(v[i]);
-  return s;
-}
 
 std::function<int()> setup_train_sdf(CLI::App& app) {
   struct Opts {
@@ -68,9 +43,9 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
   s.net.global_features = 512;
   s.net.point_mlp = {64, 128};
   s.net.decoder = {256, 128};
-  o->encoder = join(s.net.encoder_channels);
-  o->point_mlp = join(s.net.point_mlp);
-  o->decoder = join(s.net.decoder);
+  o->encoder = join_widths(s.net.encoder_channels);
+  o->point_mlp = join_widths(s.net.point_mlp);
+  o->decoder = join_widths(s.net.decoder);
   app.add_option("--data", s.data, "prepared dataset folder (sdfkit prep ... --views V)")->required();
   app.add_option("-o,--out", s.out,
                  "model file to write (checkpoint); MODEL_STEM.loss.csv and MODEL_STEM.loss.svg are written beside it")

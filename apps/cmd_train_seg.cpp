@@ -7,34 +7,9 @@
 
 #include <cstdio>
 #include <iostream>
-#include <sstream>
 
 namespace sdfkit::app {
 namespace {
-
-std::vector<int> parse_width_list(const std::string& s, const std::string& flag) {
-  std::vector<int> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    try {
-      size_t used = 0;
-      const int v = std::stoi(item, &used);
-      if (used != item.size() || v <= 0) throw std::invalid_argument(item);
-      out.push_back(v);
-    } catch (const std::exception&) {
-      throw InvalidInput("train seg: " + flag + " '" + s + "': expected positive integers separated by commas");
-    }
-  }
-  if (out.empty()) throw InvalidInput("train seg: " + flag + ": empty list");
-  return out;
-}
-
-std::string join_widths(const std::vector<int>& v) {
-  std::string s;
-  for (size_t i = 0; i < v.size(); ++i) s += (i ? "," : "") + std::to_string(v[i]);
-  return s;
-}
 
 std::function<int()> setup_train_seg(CLI::App& app) {
   struct Opts {
@@ -111,8 +86,8 @@ std::function<int()> setup_train_seg(CLI::App& app) {
   return [o] {
     SegTrainSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
-    s.net.encoder = parse_width_list(o->encoder, "--encoder");
-    s.net.decoder = parse_width_list(o->decoder, "--decoder");
+    s.net.encoder = parse_widths(o->encoder, "train seg: --encoder");
+    s.net.decoder = parse_widths(o->decoder, "train seg: --decoder");
     const auto [lo, hi] = parse_positive_range(o->object_range, "train seg: --object-range");
     s.composite.object_min = lo;
     s.composite.object_max = hi;

@@ -42,6 +42,11 @@ CLI::Validator in_range(double lo, double hi);
 /// "MIN,MAX" with 0 < MIN <= MAX (finite) as {MIN, MAX}; InvalidInput naming `what` (e.g. "train sdf: --zoom-range")
 /// otherwise.
 std::pair<double, double> parse_positive_range(const std::string& text, const std::string& what);
+/// "A,B,C,..." of positive integers (layer widths) as a list; InvalidInput naming `what` (e.g. "--encoder")
+/// otherwise.
+std::vector<int> parse_widths(const std::string& text, const std::string& what);
+/// The inverse of parse_widths: "16,32,64" (the default text of a width-list flag).
+std::string join_widths(const std::vector<int>& widths);
 
 /// Mesh formats the commands write (core/mesh_io.h write_mesh), as extensions without the dot.
 extern const std::vector<std::string> kMeshOutExtensions;

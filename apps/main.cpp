@@ -18,6 +18,9 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <sstream>
+#include <stdexcept>
+#include <string>
 #include <unistd.h>
 
 namespace sdfkit::app {
@@ -77,6 +80,30 @@ CLI::Validator in_range(double lo, double hi) {
   return numeric_check([lo, hi](double v) { return v >= lo && v <= hi; },
                        "between " + number_text(lo) + " and " + number_text(hi),
                        "in [" + number_text(lo) + " - " + number_text(hi) + "]");
+}
+
+std::vector<int> parse_widths(const std::string& text, const std::string& what) {
+  std::vector<int> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      size_t used = 0;
+      const int v = std::stoi(item, &used);
+      if (used != item.size() || v <= 0) throw std::invalid_argument(item);
+      out.push_back(v);
+    } catch (const std::exception&) {
+      throw InvalidInput(what + " '" + text + "': expected positive integers separated by commas");
+    }
+  }
+  if (out.empty()) throw InvalidInput(what + ": empty list");
+  return out;
+}
+
+std::string join_widths(const std::vector<int>& widths) {
+  std::string text;
+  for (size_t i = 0; i < widths.size(); ++i) text += (i ? "," : "") + std::to_string(widths[i]);
+  return text;
 }
 
 std::pair<double, double> parse_positive_range(const std::string& text, const std::string& what) {
