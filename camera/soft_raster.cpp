@@ -152,6 +152,66 @@ inline bool span(const std::array<double, 3>& c, double r, int t0, int t1, int* 
   return *lo <= *hi;
 }
 
+/// camera/render.h's flat shading of a unit camera-frame normal: diffuse = ambient + sum_k I_k max(0, n.l_k),
+/// specular = w sum_k [n.l_k > 0] I_k max(0, n.h_k)^shininess with h_k = normalise(l_k - z) (non-local viewer), and
+/// their gradients with respect to n.
+struct ShadeModel {
+  std::vector<Eigen::Vector3d> l, h;
+  std::vector<double> intensity;
+  double ambient = 0, specular = 0, shininess = 1;
+
+  explicit ShadeModel(const SoftRasterSettings& s) : ambient(s.ambient), specular(s.specular), shininess(s.shininess) {
+    for (const Light& light : s.lights) {
+      const Eigen::Vector3d d = light.direction.cast<double>().normalized();
+      l.push_back(d);
+      h.push_back((d + Eigen::Vector3d(0, 0, -1)).normalized());
+      intensity.push_back(light.intensity);
+    }
+  }
+
+  void eval(const Eigen::Vector3d& n, double* diffuse, double* spec, Eigen::Vector3d* d_diffuse,
+            Eigen::Vector3d* d_spec) const {
+    *diffuse = ambient;
+    *spec = 0;
+    if (d_diffuse) d_diffuse->setZero();
+    if (d_spec) d_spec->setZero();
+    for (size_t k = 0; k < l.size(); ++k) {
+      const double ndl = n.dot(l[k]);
+      if (ndl <= 0) continue;
+      *diffuse += intensity[k] * ndl;
+      if (d_diffuse) *d_diffuse += intensity[k] * l[k];
+      const double ndh = n.dot(h[k]);
+      if (ndh <= 0) continue;
+      *spec += specular * intensity[k] * std::pow(ndh, shininess);
+      if (d_spec) *d_spec += specular * intensity[k] * shininess * std::pow(ndh, shininess - 1) * h[k];
+    }
+  }
+};
+
+/// A face's corners in the camera frame, its unnormalised normal u = (p1 - p0) x (p2 - p0) and the unit normal
+/// n = sign u / |u| turned towards the camera (camera/render.h: n.(p0 + p1 + p2) <= 0), (0, 0, -1) when degenerate.
+struct FaceNormal {
+  Eigen::Vector3d p[3], u, n;
+  double length = 0, sign = 1;
+};
+
+FaceNormal face_normal(const Points& V, const Faces& F, Eigen::Index f, const Camera& cam) {
+  FaceNormal out;
+  for (int m = 0; m < 3; ++m) out.p[m] = cam.R * V.row(F(f, m)).transpose() + cam.t;
+  out.u = (out.p[1] - out.p[0]).cross(out.p[2] - out.p[0]);
+  out.length = out.u.norm();
+  if (!(out.length > 0)) {
+    out.n = Eigen::Vector3d(0, 0, -1);
+    return out;
+  }
+  out.n = out.u / out.length;
+  if (out.n.dot(out.p[0] + out.p[1] + out.p[2]) > 0) {
+    out.sign = -1;
+    out.n = -out.n;
+  }
+  return out;
+}
+
 }  // namespace
 
 double SoftRasterSettings::radius() const { return std::sqrt(sigma * std::log(1.0 / cutoff - 1.0)); }
@@ -164,6 +224,12 @@ void validate_soft_raster_settings(const SoftRasterSettings& s) {
           "soft raster: need 0 <= z_near < z_far");
   require(std::isfinite(s.near) && s.near > 0, "soft raster: the near plane must be positive");
   require(s.background.allFinite(), "soft raster: the background colour must be finite");
+  require(std::isfinite(s.ambient) && s.ambient >= 0 && std::isfinite(s.specular) && s.specular >= 0 &&
+              std::isfinite(s.shininess) && s.shininess >= 1,
+          "soft raster: ambient and specular must be >= 0 and shininess >= 1");
+  for (const Light& l : s.lights)
+    require(l.direction.allFinite() && l.direction.norm() > 0 && std::isfinite(l.intensity) && l.intensity >= 0,
+            "soft raster: lights need a non-zero finite direction and a non-negative intensity");
 }
 
 SoftRasterizer::SoftRasterizer(Faces faces, SoftRasterSettings settings)
@@ -247,6 +313,18 @@ SoftImages SoftRasterizer::render(const Points& V, const Points& C, const Camera
     }
   });
 
+  c.shade.clear();
+  if (s.colour && s.lit) {
+    const ShadeModel model(s);
+    c.shade.resize(static_cast<size_t>(faces_.rows()) * 2);
+    tbb::parallel_for(Eigen::Index(0), faces_.rows(), [&](Eigen::Index f) {
+      const FaceNormal fn = face_normal(V, faces_, f, cam);
+      model.eval(fn.n, &c.shade[2 * static_cast<size_t>(f)], &c.shade[2 * static_cast<size_t>(f) + 1], nullptr,
+                 nullptr);
+    });
+  }
+  const bool lit = !c.shade.empty();
+
   SoftImages out;
   out.alpha = Image(W, H, 1, 0.0f);
   if (s.colour) out.rgb = Image(W, H, 3, 0.0f);
@@ -271,8 +349,12 @@ SoftImages SoftRasterizer::render(const Points& V, const Points& C, const Camera
         const double zeta = (s.z_far - fr.z) / zrange;
         fr.weight = fr.p * std::exp((zeta - zmax) / s.gamma);
         const auto tri = faces_.row(fr.face);
-        const Eigen::Vector3d col = fr.bary[0] * C.row(tri[0]).transpose() + fr.bary[1] * C.row(tri[1]).transpose() +
-                                    fr.bary[2] * C.row(tri[2]).transpose();
+        Eigen::Vector3d col = fr.bary[0] * C.row(tri[0]).transpose() + fr.bary[1] * C.row(tri[1]).transpose() +
+                              fr.bary[2] * C.row(tri[2]).transpose();
+        if (lit) {
+          const size_t f2 = 2 * static_cast<size_t>(fr.face);
+          col = c.shade[f2] * col + Eigen::Vector3d::Constant(c.shade[f2 + 1]);
+        }
         num += fr.weight * col;
         den += fr.weight;
       }
@@ -309,7 +391,9 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
   struct FragmentGrad {
     double xyz[3][3];
     double col[3][3];
+    double shade[2];  // lit: d loss / d the face's diffuse factor and specular term
   };
+  const bool lit = rgb && !c.shade.empty();
   std::vector<FragmentGrad> fg(c.fragments.size());
   const double zrange = s.z_far - s.z_near;
   tbb::parallel_for(0, H, [&](int i) {
@@ -339,6 +423,10 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
           const auto tri = faces_.row(fr[q].face);
           colours[q] = fr[q].bary[0] * c.C.row(tri[0]).transpose() + fr[q].bary[1] * c.C.row(tri[1]).transpose() +
                        fr[q].bary[2] * c.C.row(tri[2]).transpose();
+          if (lit) {
+            const size_t f2 = 2 * static_cast<size_t>(fr[q].face);
+            colours[q] = c.shade[f2] * colours[q] + Eigen::Vector3d::Constant(c.shade[f2 + 1]);
+          }
           pix += fr[q].weight * colours[q];
           den += fr[q].weight;
         }
@@ -349,6 +437,7 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
         FragmentGrad& g = fg[static_cast<size_t>(a) + q];
         std::fill(&g.xyz[0][0], &g.xyz[0][0] + 9, 0.0);
         std::fill(&g.col[0][0], &g.col[0][0] + 9, 0.0);
+        g.shade[0] = g.shade[1] = 0;
         double gp = ga * prefix[q] * suffix[q + 1];
         std::array<double, 3> glc{};  // d loss / d clamped barycentrics
         const auto tri = faces_.row(f.face);
@@ -368,7 +457,18 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
           // weight = p exp((zeta - zmax) / gamma): d/dp = weight / p, d/dzeta = weight / gamma.
           gp += gw * (f.weight / f.p);
           const double gz = -gw * f.weight / s.gamma / zrange;
-          const Eigen::Vector3d gcol = gc * (f.weight / den);
+          const Eigen::Vector3d gshaded = gc * (f.weight / den);  // d loss / d the fragment's colour
+          // Lit: colour = diffuse * albedo + specular, albedo = sum_m bary_m C_m.
+          double diffuse = 1;
+          if (lit) {
+            diffuse = c.shade[2 * static_cast<size_t>(f.face)];
+            const Eigen::Vector3d albedo = f.bary[0] * c.C.row(tri[0]).transpose() +
+                                           f.bary[1] * c.C.row(tri[1]).transpose() +
+                                           f.bary[2] * c.C.row(tri[2]).transpose();
+            g.shade[0] = gshaded.dot(albedo);
+            g.shade[1] = gshaded.sum();
+          }
+          const Eigen::Vector3d gcol = gshaded * diffuse;  // d loss / d the fragment's albedo
           for (int m = 0; m < 3; ++m) {
             glc[static_cast<size_t>(m)] += gcol.dot(c.C.row(tri[m]).transpose()) + gz * fv.z[static_cast<size_t>(m)];
             for (int ch = 0; ch < 3; ++ch) g.col[m][ch] += gcol[ch] * f.bary[m];
@@ -434,8 +534,13 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
 
   // Fragments to vertices in a fixed order: the same sums for any thread count.
   std::vector<Eigen::Vector3d> gview(static_cast<size_t>(nv), Eigen::Vector3d::Zero());
+  std::vector<double> gshade(lit ? c.shade.size() : 0, 0.0);
   for (size_t q = 0; q < c.fragments.size(); ++q) {
     const auto tri = faces_.row(c.fragments[q].face);
+    if (lit) {
+      gshade[2 * static_cast<size_t>(c.fragments[q].face)] += fg[q].shade[0];
+      gshade[2 * static_cast<size_t>(c.fragments[q].face) + 1] += fg[q].shade[1];
+    }
     for (int m = 0; m < 3; ++m) {
       Eigen::Vector3d& v = gview[static_cast<size_t>(tri[m])];
       for (int a = 0; a < 3; ++a) v[a] += fg[q].xyz[m][a];
@@ -445,6 +550,32 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
   }
   for (Eigen::Index v = 0; v < nv; ++v)
     dV.row(v) += (vv[static_cast<size_t>(v)].jacobian.transpose() * gview[static_cast<size_t>(v)]).transpose();
+  if (!lit) return;
+  // Shading to positions through the face normals: per face in parallel, then summed per vertex in face order.
+  const ShadeModel model(s);
+  std::vector<std::array<Eigen::Vector3d, 3>> gface(static_cast<size_t>(faces_.rows()));
+  tbb::parallel_for(Eigen::Index(0), faces_.rows(), [&](Eigen::Index f) {
+    auto& out = gface[static_cast<size_t>(f)];
+    out.fill(Eigen::Vector3d::Zero());
+    const double gd = gshade[2 * static_cast<size_t>(f)], gs = gshade[2 * static_cast<size_t>(f) + 1];
+    if (gd == 0 && gs == 0) return;
+    const FaceNormal fn = face_normal(c.V, faces_, f, cam);
+    if (!(fn.length > 0)) return;
+    double diffuse = 0, spec = 0;
+    Eigen::Vector3d dd, ds;
+    model.eval(fn.n, &diffuse, &spec, &dd, &ds);
+    const Eigen::Vector3d gn = gd * dd + gs * ds;
+    // n = sign u / |u|: d n = sign (I - n n^T) d u / |u| (the sign squares away in n n^T).
+    const Eigen::Vector3d gu = fn.sign * (gn - fn.n * fn.n.dot(gn)) / fn.length;
+    // u = (p1 - p0) x (p2 - p0): d/d p1 = (p2 - p0) x gu, d/d p2 = gu x (p1 - p0), d/d p0 = -(both).
+    out[1] = (fn.p[2] - fn.p[0]).cross(gu);
+    out[2] = gu.cross(fn.p[1] - fn.p[0]);
+    out[0] = -(out[1] + out[2]);
+  });
+  std::vector<Eigen::Vector3d> gcam(static_cast<size_t>(nv), Eigen::Vector3d::Zero());
+  for (Eigen::Index f = 0; f < faces_.rows(); ++f)
+    for (int m = 0; m < 3; ++m) gcam[static_cast<size_t>(faces_(f, m))] += gface[static_cast<size_t>(f)][m];
+  for (Eigen::Index v = 0; v < nv; ++v) dV.row(v) += (cam.R.transpose() * gcam[static_cast<size_t>(v)]).transpose();
 }
 
 }  // namespace sdfkit

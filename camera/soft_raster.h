@@ -11,7 +11,11 @@
 //  * colour = (sum_f w_f c_f + w_b background) / (sum_f w_f + w_b), w_f = p_f exp(zeta_f / gamma),
 //    w_b = exp(eps / gamma), zeta = (z_far - z) / (z_far - z_near) of the face's depth z at q; c_f and z come from
 //    the face's vertex colours and camera depths, interpolated with q's barycentric coordinates clamped to the
-//    triangle (renormalised), as PyTorch3D's blending does. The colours are unlit: shading is not modelled.
+//    triangle (renormalised), as PyTorch3D's blending does. Unlit by default (c_f = the vertex colours); with
+//    `lit`, c_f = diffuse_f * albedo + specular_f, the flat Lambert + Blinn-Phong shading of camera/render.h under the
+//    same camera-fixed light rig (face normal turned towards the camera, non-local viewer), so that a render of the
+//    mesh by `sdfkit render` is matched by the right shape and albedo, and the colour term sees the surface's
+//    orientation (gradients reach the positions through the face normals).
 //  * faces with a vertex closer than `near` to the camera, or with a projected area under 1e-12 px^2, are dropped.
 //
 // Gradients are exact for this model (finite-difference checks in tests/camera/soft_raster_test.cpp), except at
@@ -21,6 +25,7 @@
 
 #include "camera/camera.h"
 #include "camera/image.h"
+#include "camera/render.h"
 #include "core/types.h"
 
 #include <Eigen/Core>
@@ -37,6 +42,11 @@ struct SoftRasterSettings {
   double near = 1e-3;      ///< faces with a vertex at z_cam < near are dropped
   Eigen::Vector3d background = Eigen::Vector3d::Ones();  ///< colour where no face is
   bool colour = true;      ///< false: silhouettes only (cheaper)
+  /// Shade the vertex colours (as albedo) with camera/render.h's model; the defaults are RenderSettings' own.
+  bool lit = false;
+  double ambient = 0.2;
+  std::vector<Light> lights = default_light_rig();
+  double specular = 0.12, shininess = 24.0;
 
   /// Radius in pixels beyond which a face's coverage is under `cutoff`.
   [[nodiscard]] double radius() const;
@@ -58,6 +68,7 @@ struct SoftRasterCache {
   std::vector<Fragment> fragments;   ///< grouped by pixel, faces in index order within a pixel
   std::vector<int64_t> offsets;      ///< pixel k's fragments: [offsets[k], offsets[k + 1]), k = y * W + x
   std::vector<double> background_weight;  ///< w_b, shifted as the fragments' weights, per pixel
+  std::vector<double> shade;         ///< lit: per face, diffuse factor and specular term (2 per face); else empty
   Points V;                          ///< the positions and colours rendered
   Points C;
 };

@@ -1,5 +1,6 @@
 #include "camera/soft_raster.h"
 
+#include "camera/render.h"
 #include "camera/silhouette.h"
 #include "core/error.h"
 #include "core/primitives.h"
@@ -64,8 +65,12 @@ double loss_in_double(const SoftRasterizer& r, const Points& V, const Points& C,
         const auto& f = cache.fragments[static_cast<size_t>(q)];
         transmit *= 1 - f.p;
         const auto tri = r.faces().row(f.face);
-        const Eigen::Vector3d col = f.bary[0] * C.row(tri[0]).transpose() + f.bary[1] * C.row(tri[1]).transpose() +
-                                    f.bary[2] * C.row(tri[2]).transpose();
+        Eigen::Vector3d col = f.bary[0] * C.row(tri[0]).transpose() + f.bary[1] * C.row(tri[1]).transpose() +
+                              f.bary[2] * C.row(tri[2]).transpose();
+        if (!cache.shade.empty()) {
+          const size_t f2 = 2 * static_cast<size_t>(f.face);
+          col = cache.shade[f2] * col + Eigen::Vector3d::Constant(cache.shade[f2 + 1]);
+        }
         num += f.weight * col;
         den += f.weight;
       }
@@ -77,42 +82,79 @@ double loss_in_double(const SoftRasterizer& r, const Points& V, const Points& C,
 
 }  // namespace
 
-TEST_CASE("soft raster: gradients to positions and colours match central differences") {
-  const Mesh m = bumpy_sphere(1, 7);
-  const Points C = random_colours(m.V.rows(), 8);
-  Camera cam = look_at(30, 25, 2.6, 40, 40);
+TEST_CASE("soft raster: gradients to positions and colours match central differences, unlit and lit") {
+  for (const bool lit : {false, true}) {
+    CAPTURE(lit);
+    const Mesh m = bumpy_sphere(1, 7);
+    const Points C = random_colours(m.V.rows(), 8);
+    Camera cam = look_at(30, 25, 2.6, 40, 40);
+    SoftRasterSettings s;
+    s.sigma = 2.0;     // wide edges: many fragments carry gradient
+    s.gamma = 0.05;    // soft depth blending: occluded faces carry gradient too
+    s.z_near = 1.0;
+    s.z_far = 5.0;
+    s.cutoff = 1e-9;
+    s.lit = lit;
+    s.shininess = 3;  // a broad highlight: many faces carry a specular gradient
+    const SoftRasterizer r(m.F, s);
+    const LinearLoss L(cam.width, cam.height, 9);
+    SoftRasterCache cache;
+    (void)r.render(m.V, C, cam, &cache);
+    Points dV, dC;
+    r.backward(cache, L.wa, L.wc, dV, dC);
+    const double h = 1e-6;
+    int checked = 0;
+    double worst = 0;
+    for (Eigen::Index v = 0; v < m.V.rows(); ++v)
+      for (int a = 0; a < 3; ++a) {
+        Points Vp = m.V, Vm = m.V;
+        Vp(v, a) += h;
+        Vm(v, a) -= h;
+        const double fd = (loss_in_double(r, Vp, C, cam, L) - loss_in_double(r, Vm, C, cam, L)) / (2 * h);
+        worst = std::max(worst, std::abs(fd - dV(v, a)) / std::max(1.0, std::abs(fd)));
+        ++checked;
+        Points Cp = C, Cm = C;
+        Cp(v, a) += h;
+        Cm(v, a) -= h;
+        const double fdc = (loss_in_double(r, m.V, Cp, cam, L) - loss_in_double(r, m.V, Cm, cam, L)) / (2 * h);
+        CHECK(dC(v, a) == doctest::Approx(fdc).epsilon(1e-5).scale(1.0));
+      }
+    CHECK(checked == 3 * m.V.rows());
+    CHECK(worst < 1e-4);
+    CHECK(dV.norm() > 1.0);  // the check is not vacuous
+  }
+}
+
+TEST_CASE("soft raster: lit, the sharp limit is camera/render's flat Lambert + Blinn-Phong shading") {
+  const Mesh m = bumpy_sphere(2, 4);
+  const Camera cam = look_at(40, 30, 2.7, 56, 56);
+  RenderSettings rs;
+  rs.supersampling = 1;  // the pixel centre's face, as the sharp soft render
+  const RenderResult ref = render(m, cam, rs);
   SoftRasterSettings s;
-  s.sigma = 2.0;     // wide edges: many fragments carry gradient
-  s.gamma = 0.05;    // soft depth blending: occluded faces carry gradient too
-  s.z_near = 1.0;
-  s.z_far = 5.0;
-  s.cutoff = 1e-9;
-  const SoftRasterizer r(m.F, s);
-  const LinearLoss L(cam.width, cam.height, 9);
-  SoftRasterCache cache;
-  (void)r.render(m.V, C, cam, &cache);
-  Points dV, dC;
-  r.backward(cache, L.wa, L.wc, dV, dC);
-  const double h = 1e-6;
-  int checked = 0;
-  double worst = 0;
-  for (Eigen::Index v = 0; v < m.V.rows(); ++v)
-    for (int a = 0; a < 3; ++a) {
-      Points Vp = m.V, Vm = m.V;
-      Vp(v, a) += h;
-      Vm(v, a) -= h;
-      const double fd = (loss_in_double(r, Vp, C, cam, L) - loss_in_double(r, Vm, C, cam, L)) / (2 * h);
-      worst = std::max(worst, std::abs(fd - dV(v, a)) / std::max(1.0, std::abs(fd)));
-      ++checked;
-      Points Cp = C, Cm = C;
-      Cp(v, a) += h;
-      Cm(v, a) -= h;
-      const double fdc = (loss_in_double(r, m.V, Cp, cam, L) - loss_in_double(r, m.V, Cm, cam, L)) / (2 * h);
-      CHECK(dC(v, a) == doctest::Approx(fdc).epsilon(1e-5).scale(1.0));
+  s.sigma = 1e-7;
+  s.gamma = 1e-6;
+  s.z_near = 0;
+  s.z_far = 10;
+  s.lit = true;
+  const Points C = Points::Zero(m.V.rows(), 3).rowwise() + rs.default_color.cast<double>().transpose();
+  const SoftImages im = SoftRasterizer(m.F, s).render(m.V, C, cam);
+  SoftRasterSettings unlit = s;
+  unlit.lit = false;
+  const SoftImages flat = SoftRasterizer(m.F, unlit).render(m.V, C, cam);
+  int inside = 0, agree = 0, shaded = 0;
+  for (int i = 0; i < cam.height; ++i)
+    for (int j = 0; j < cam.width; ++j) {
+      if (ref.rgba.at(j, i, 3) < 1 || im.alpha.at(j, i) < 0.999) continue;
+      ++inside;
+      bool same = true;
+      for (int c = 0; c < 3; ++c) same = same && std::abs(im.rgb.at(j, i, c) - ref.rgba.at(j, i, c)) < 2e-3;
+      agree += same;
+      shaded += std::abs(flat.rgb.at(j, i, 0) - im.rgb.at(j, i, 0)) > 0.02;
     }
-  CHECK(checked == 3 * m.V.rows());
-  CHECK(worst < 1e-4);
-  CHECK(dV.norm() > 1.0);  // the check is not vacuous
+  CHECK(inside > 1000);
+  CHECK(agree >= 0.99 * inside);  // pixel centres within 1e-3 px of an edge may pick the neighbouring face
+  CHECK(shaded > 0.5 * inside);   // and the shading is not the albedo
 }
 
 TEST_CASE("soft raster: the sharp limit is the pixel-centre silhouette, the nearest face gives the colour") {
@@ -188,6 +230,15 @@ TEST_CASE("soft raster: bad settings and inputs are refused") {
   s = {};
   s.cutoff = 0.7;
   CHECK_THROWS_AS(SoftRasterizer(m.F, s), InvalidInput);
+  s = {};
+  s.shininess = 0.5;
+  CHECK_THROWS_WITH_AS(SoftRasterizer(m.F, s), "soft raster: ambient and specular must be >= 0 and shininess >= 1",
+                       InvalidInput);
+  s = {};
+  s.lights[1].direction.setZero();
+  CHECK_THROWS_WITH_AS(SoftRasterizer(m.F, s),
+                       "soft raster: lights need a non-zero finite direction and a non-negative intensity",
+                       InvalidInput);
   const SoftRasterizer r(m.F);
   const Camera cam = look_at(0, 0, 3, 16, 16);
   CHECK_THROWS_AS((void)r.render(m.V.topRows(3), Points::Zero(3, 3), cam), InvalidInput);
