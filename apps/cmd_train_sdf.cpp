@@ -69,7 +69,8 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--init", s.init,
                  "start from this SDF model's weights (same network flags) instead of the seeded initialisation; "
-                 "fresh optimiser (fine-tuning)");
+                 "fresh optimiser (fine-tuning); a binary network may start from a two-stream model (its output "
+                 "layers negated and scaled by 10: logit = -10 pred)");
   app.add_option("--camera-jitter", s.camera_jitter_deg,
                  "turn each training camera about the object's vertical axis by a Gaussian angle of this standard "
                  "deviation in degrees (0 = off): teaches the local features to tolerate an estimated camera's "

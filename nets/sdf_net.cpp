@@ -659,6 +659,32 @@ void SdfNetT<T>::adopt_parameters(const SdfNetT& other) {
   std::fill(dst + rest_dst + n, dst + store_.size(), T(0));
 }
 
+template <typename T>
+bool SdfNetT<T>::can_adopt_as_binary(const SdfNetConfig& from, const SdfNetConfig& to) {
+  if (from.variant != SdfVariant::kTwoStream || to.variant != SdfVariant::kBinary) return false;
+  SdfNetConfig f = from;
+  f.variant = SdfVariant::kBinary;
+  return f.to_json() == to.to_json();
+}
+
+template <typename T>
+void SdfNetT<T>::adopt_as_binary(const SdfNetT& sdf_model, T scale) {
+  require(can_adopt_as_binary(sdf_model.config_, config_),
+          "SDF network: adopt_as_binary needs a two-stream model of this binary network's architecture");
+  require(scale > 0 && std::isfinite(static_cast<double>(scale)), "SDF network: adopt_as_binary needs a positive scale");
+  require(sdf_model.store_.size() == store_.size(), "SDF network: parameter layouts differ");
+  std::copy(sdf_model.store_.values.begin(), sdf_model.store_.values.begin() + static_cast<std::ptrdiff_t>(store_.size()),
+            store_.values.begin());
+  const auto& layers = store_.layers();
+  for (auto& s : impl_->streams) {
+    const Layer<T>* out = &s.rest[s.rest.size() - 1];
+    const auto it = std::find(layers.begin(), layers.end(), out);
+    require(it != layers.end(), "SDF network: output layer not in the parameter store");
+    T* w = store_.values.data() + store_.offset(static_cast<size_t>(it - layers.begin()));
+    for (size_t k = 0; k < out->n_params(); ++k) w[k] *= -scale;
+  }
+}
+
 template class SdfNetT<float>;
 template class SdfNetT<double>;
 template void project_for_sampling<float>(const Camera&, const PointsF&, int, float*);

@@ -155,6 +155,12 @@ class SdfNetT {
   void adopt_parameters(const SdfNetT& other);
   /// Whether adopt_parameters accepts a model of configuration `from` for a network of configuration `to`.
   static bool can_adopt(const SdfNetConfig& from, const SdfNetConfig& to);
+  /// Start this binary network from a two-stream SDF model of the same architecture (the same configuration but for
+  /// the variant): its parameters, with each stream's output layer multiplied by -scale, so that the logit starts
+  /// as -scale x the model's pred (positive inside) and field() as scale x the model's field. InvalidInput unless
+  /// this is binary and `sdf_model` two-stream with otherwise equal configurations.
+  void adopt_as_binary(const SdfNetT& sdf_model, T scale);
+  static bool can_adopt_as_binary(const SdfNetConfig& from, const SdfNetConfig& to);
 
   /// Channel count of the local feature a stream sees (0 for global-only).
   [[nodiscard]] int local_channels(int stream) const;

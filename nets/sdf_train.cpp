@@ -31,6 +31,9 @@ namespace {
 constexpr int kLogEvery = 25;  // CSV rows: mean training loss over this many steps
 /// --adversarial: silhouette rays whose prediction is within this many temperatures of 0 are differentiated.
 constexpr double kActiveTemperatures = 6.0;
+/// --init of a binary network from a two-stream model: logit = -10 x pred = -100 (sdf - 0.003) at the start, i.e.
+/// probabilities 0.27-0.73 within 0.01 of the surface and saturated beyond 0.05.
+constexpr float kBinaryFromSdfScale = 10.0f;
 
 /// Loss of the variant (value; gradient into grad when not null).
 double variant_loss(const SdfNetConfig& c, const Tensor& pred, const Tensor& sdf, Tensor* grad) {
@@ -230,6 +233,8 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     const auto start = load_sdf_model(st.init);
     if (SdfNet::can_adopt(start->config(), st.net)) {
       net.adopt_parameters(*start);  // an RGB model for an RGB + mask network, or one without mirror features
+    } else if (SdfNet::can_adopt_as_binary(start->config(), st.net)) {
+      net.adopt_as_binary(*start, kBinaryFromSdfScale);  // a two-stream model turned into an occupancy classifier
     } else if (start->config().to_json() != st.net.to_json()) {
       throw InvalidInput(st.init + ": --init model has another configuration than the network being trained (" +
                          start->config().to_json().dump() + " vs " + st.net.to_json().dump() + ")");

@@ -195,6 +195,42 @@ TEST_CASE("SDF network: an RGB + mask network adopting an RGB model computes the
   CHECK_THROWS_AS(rgb.adopt_parameters(rgb), InvalidInput);
 }
 
+TEST_CASE("SDF network: a binary network adopting a two-stream model starts with logit = -scale x pred") {
+  SdfNetConfig sdf_config = tiny_config(SdfVariant::kTwoStream, 1);
+  sdf_config.mirror_features = true;
+  SdfNetConfig binary_config = sdf_config;
+  binary_config.variant = SdfVariant::kBinary;
+  SdfNetT<double> sdf(sdf_config), binary(binary_config);
+  sdf.init(5);
+  binary.init(6);
+  binary.adopt_as_binary(sdf, 10.0);
+  Rng rng(3);
+  const int N = 30, S = 17;
+  const TensorT<double> image = random_tensor<double>({1, 3, S, S}, rng, 0.0, 1.0);
+  const TensorT<double> points = random_tensor<double>({1, N, 3}, rng, -0.6, 0.6);
+  const Camera cam = look_at(70, 28, 2.4, S, S);
+  SdfNetT<double>::Workspace ws, wb;
+  TensorT<double> ps, pb;
+  sdf.forward(image, {cam}, points, ws, ps);
+  binary.forward(image, {cam}, points, wb, pb);
+  double spread = 0;
+  for (int i = 0; i < N; ++i) {
+    CHECK(pb[i] == doctest::Approx(-10.0 * ps[i]).epsilon(1e-12).scale(1.0));
+    spread += std::abs(ps[i]);
+  }
+  CHECK(spread > 1e-3);  // not a vacuous comparison of zeros
+  // Only a two-stream model of the same architecture, into a binary network, with a positive scale.
+  SdfNetConfig other = binary_config;
+  other.global_features = 5;
+  SdfNetT<double> wrong(other);
+  CHECK_THROWS_AS(wrong.adopt_as_binary(sdf, 10.0), InvalidInput);
+  CHECK_THROWS_AS(sdf.adopt_as_binary(sdf, 10.0), InvalidInput);
+  CHECK_THROWS_AS(binary.adopt_as_binary(binary, 10.0), InvalidInput);
+  CHECK_THROWS_AS(binary.adopt_as_binary(sdf, 0.0), InvalidInput);
+  CHECK(SdfNetT<double>::can_adopt_as_binary(sdf_config, binary_config));
+  CHECK_FALSE(SdfNetT<double>::can_adopt_as_binary(binary_config, sdf_config));
+}
+
 TEST_CASE("SDF network: mirror features read the image where the point's mirror image projects") {
   // Independent reference: with its own local weights zeroed and its mirror weights set to a plain network's
   // local weights, a mirror network seen through the mirrored camera R diag(-1, 1, 1) projects (-x, y, z) where
