@@ -8,6 +8,7 @@
 #include "core/json.h"
 #include "core/mesh_io.h"
 #include "nets/plot.h"
+#include "refine/carve.h"
 #include "refine/refine.h"
 
 #include <algorithm>
@@ -35,7 +36,8 @@ std::function<int()> setup_refine(CLI::App& app) {
     double sphere_radius = 1.0;
     int preview = 4;
     double minutes = 0;
-    bool json = false, adversarial = false;
+    bool json = false, adversarial = false, carve = false;
+    CarveSettings carve_settings;
     double w_adversarial = 1.0;
   };
   auto o = std::make_shared<Opts>();
@@ -58,7 +60,18 @@ std::function<int()> setup_refine(CLI::App& app) {
   app.add_option("--sphere-radius", o->sphere_radius, "radius of the starting icosphere (views' object frame)")
       ->check(positive())
       ->capture_default_str();
-  app.add_option("--iters", s.iters, "optimisation steps")->check(positive())->capture_default_str();
+  CLI::Option* carve_flag = app.add_flag("--carve", o->carve,
+               "before optimising, cut the starting mesh down to the views' visual hull (space carving: keep what "
+               "projects inside every silhouette); opens what a view sees through, e.g. the gap between a recon "
+               "table's legs, which deforming the mesh cannot");
+  app.add_option("--carve-res", o->carve_settings.resolution, "grid points per axis of the carving (box [-1.05, 1.05]^3)")
+      ->check(in_range(3, 1025))
+      ->capture_default_str()
+      ->needs(carve_flag);
+  app.add_option("--iters", s.iters,
+                 "optimisation steps (0: write the starting mesh as it is, e.g. the visual hull with --carve)")
+      ->check(non_negative())
+      ->capture_default_str();
   app.add_option("--views-per-step", s.views_per_step, "views drawn at random for each step")
       ->check(positive())
       ->capture_default_str();
@@ -94,6 +107,10 @@ std::function<int()> setup_refine(CLI::App& app) {
   app.add_option("--gamma", s.raster.gamma, "depth softness of the colour blending")
       ->check(positive())
       ->capture_default_str();
+  app.add_flag("--lit", s.raster.lit,
+               "shade the mesh's colours as `sdfkit render` lights its views (flat Lambert + Blinn-Phong, the "
+               "camera-fixed light rig), so the colour term sees the surface's orientation; for views made by "
+               "`render` or `prep --views`");
   app.add_option("--subdivide-at", o->subdivide,
                  "coarse to fine: after these steps (comma-separated) split every face into four and restart the "
                  "momentum (see --subdivide-lr)");
@@ -135,7 +152,16 @@ std::function<int()> setup_refine(CLI::App& app) {
       a = b + 1;
     }
     const std::vector<TargetView> views = read_target_views(o->views, s.raster.background, only);
-    const Mesh init = o->init == "sphere" ? refine_sphere(o->sphere_level, o->sphere_radius) : read_mesh(o->init);
+    Mesh init = o->init == "sphere" ? refine_sphere(o->sphere_level, o->sphere_radius) : read_mesh(o->init);
+    Json carve_json = nullptr;
+    if (o->carve) {
+      CarveReport cr;
+      init = carve_mesh(views, &init, o->carve_settings, &cr);
+      std::fprintf(stderr, "refine: carved to the visual hull of %zu views at %d^3: volume %.4f -> %.4f, %ld faces (%.1f s)\n",
+                   views.size(), o->carve_settings.resolution, cr.init_volume, cr.volume, cr.faces, cr.seconds);
+      carve_json = {{"resolution", o->carve_settings.resolution}, {"init_volume", cr.init_volume},
+                    {"volume", cr.volume}, {"vertices", cr.vertices}, {"faces", cr.faces}, {"seconds", cr.seconds}};
+    }
     std::fprintf(stderr, "refine: %zu views of %d x %d px, %ld vertices, %ld steps of %d views\n", views.size(),
                  views[0].camera.width, views[0].camera.height, static_cast<long>(init.V.rows()), s.iters,
                  std::min<int>(s.views_per_step, static_cast<int>(views.size())));
@@ -175,6 +201,7 @@ std::function<int()> setup_refine(CLI::App& app) {
     const Json summary = {{"views", o->views},
                           {"mesh", o->out},
                           {"init", o->init},
+                          {"carve", carve_json},
                           {"vertices", r.mesh.V.rows()},
                           {"faces", r.mesh.F.rows()},
                           {"steps", r.steps},
@@ -190,6 +217,7 @@ std::function<int()> setup_refine(CLI::App& app) {
                                     {"adversarial", last.adversarial},
                                     {"critic", last.critic}}},
                           {"adversarial", s.w_adversarial > 0},
+                          {"lit", s.raster.lit},
                           {"curve", {{"csv", csv}, {"svg", svg}}},
                           {"preview", preview}};
     if (o->json)

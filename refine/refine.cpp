@@ -89,7 +89,7 @@ std::vector<TargetView> read_target_views(const std::string& dir, const Eigen::V
 }
 
 void validate_refine_settings(const RefineSettings& s) {
-  require(s.iters >= 1, "refine: --iters must be at least 1");
+  require(s.iters >= 0, "refine: --iters must be >= 0");
   require(s.views_per_step >= 1, "refine: --views-per-step must be at least 1");
   require(std::isfinite(s.lr) && s.lr > 0, "refine: the learning rate must be positive");
   require(std::isfinite(s.momentum) && s.momentum >= 0 && s.momentum < 1, "refine: momentum must be in [0, 1)");

@@ -36,7 +36,7 @@ std::vector<TargetView> read_target_views(const std::string& dir,
                                           const std::vector<std::string>& only = {});
 
 struct RefineSettings {
-  long iters = 2000;
+  long iters = 2000;               ///< 0: the starting mesh comes back unchanged (colours grey or its own)
   int views_per_step = 4;          ///< views drawn (without replacement) per step; all when >= the view count
   double lr = 1.0, momentum = 0.9; ///< SGD on positions and colours (PyTorch's: buf = mu buf + g; x -= lr buf)
   double w_silhouette = 1, w_rgb = 1, w_edge = 1, w_normal = 0.01, w_laplacian = 1;

@@ -64,3 +64,48 @@ TEST_CASE("sdfkit refine: a sphere fitted to a rendered box, files beside the me
   CHECK(r.err.find("g.xyz: give a mesh path") != std::string::npos);
   fs::remove_all(dir);
 }
+
+TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual hull, reported in the JSON") {
+  const fs::path dir = test::scratch_dir("refine_cli_carve");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  write_text_atomic((dir / "box.obj").string(),
+                    "v -0.7 -0.4 -0.5\nv 0.7 -0.4 -0.5\nv 0.7 0.4 -0.5\nv -0.7 0.4 -0.5\n"
+                    "v -0.7 -0.4 0.5\nv 0.7 -0.4 0.5\nv 0.7 0.4 0.5\nv -0.7 0.4 0.5\n"
+                    "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\n"
+                    "f 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n");
+  const std::string views = (dir / "views").string(), gt = (dir / "gt.obj").string();
+  test::CliRun r = test::run_sdfkit("render " + (dir / "box.obj").string() + " -o " + views +
+                                    " --views 8 --size 48 --elevation -20 50 --mesh-out " + gt);
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const std::string out = (dir / "carved.obj").string();
+  r = test::run_sdfkit("refine " + views + " -o " + out +
+                       " --carve --carve-res 41 --iters 10 --views-per-step 2 --preview 0 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const Json j = Json::parse(r.out);
+  const Json& c = j.at("carve");
+  CHECK(c.at("resolution") == 41);
+  // The box (volume 1.31 after `render`'s unit-sphere normalisation) is far smaller than the radius-1 sphere (4.19).
+  CHECK(c.at("init_volume").get<double>() == doctest::Approx(4.19).epsilon(0.02));
+  CHECK(c.at("volume").get<double>() < 0.5 * c.at("init_volume").get<double>());
+  CHECK(j.at("vertices") == c.at("vertices"));
+  r = test::run_sdfkit("eval " + out + " " + gt + " --json --no-emd");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out).at("metrics").at("iou").get<double>() > 75);
+  // --iters 0: the carved mesh itself (the visual hull), no step taken.
+  r = test::run_sdfkit("refine " + views + " -o " + (dir / "hull.obj").string() +
+                       " --carve --carve-res 41 --iters 0 --preview 0 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const Json h = Json::parse(r.out);
+  CHECK(h.at("steps") == 0);
+  CHECK(h.at("faces") == h.at("carve").at("faces"));
+  CHECK(h.at("carve").at("volume") == c.at("volume"));
+  // Without --carve the JSON says so; --carve-res alone is an error.
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --iters 2 --sphere-level 1 --preview 0 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out).at("carve").is_null());
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --carve-res 33");
+  CHECK(r.code != 0);
+  CHECK(r.err.find("--carve") != std::string::npos);
+  fs::remove_all(dir);
+}
