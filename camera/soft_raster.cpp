@@ -212,7 +212,22 @@ FaceNormal face_normal(const Points& V, const Faces& F, Eigen::Index f, const Ca
   return out;
 }
 
+/// A fragment's albedo: the face's vertex colours at its clamped barycentrics.
+Eigen::Vector3d fragment_albedo(const Points& C, const Faces& F, const SoftRasterCache::Fragment& fr) {
+  const auto tri = F.row(fr.face);
+  return fr.bary[0] * C.row(tri[0]).transpose() + fr.bary[1] * C.row(tri[1]).transpose() +
+         fr.bary[2] * C.row(tri[2]).transpose();
+}
+
 }  // namespace
+
+Eigen::Vector3d fragment_colour(const SoftRasterCache& cache, const Points& C, const Faces& F,
+                                const SoftRasterCache::Fragment& fr) {
+  const Eigen::Vector3d albedo = fragment_albedo(C, F, fr);
+  if (cache.shade.empty()) return albedo;
+  const size_t f2 = 2 * static_cast<size_t>(fr.face);
+  return cache.shade[f2] * albedo + Eigen::Vector3d::Constant(cache.shade[f2 + 1]);
+}
 
 double SoftRasterSettings::radius() const { return std::sqrt(sigma * std::log(1.0 / cutoff - 1.0)); }
 
@@ -323,7 +338,6 @@ SoftImages SoftRasterizer::render(const Points& V, const Points& C, const Camera
                  nullptr);
     });
   }
-  const bool lit = !c.shade.empty();
 
   SoftImages out;
   out.alpha = Image(W, H, 1, 0.0f);
@@ -348,14 +362,7 @@ SoftImages SoftRasterizer::render(const Points& V, const Points& C, const Camera
         SoftRasterCache::Fragment& fr = c.fragments[static_cast<size_t>(q)];
         const double zeta = (s.z_far - fr.z) / zrange;
         fr.weight = fr.p * std::exp((zeta - zmax) / s.gamma);
-        const auto tri = faces_.row(fr.face);
-        Eigen::Vector3d col = fr.bary[0] * C.row(tri[0]).transpose() + fr.bary[1] * C.row(tri[1]).transpose() +
-                              fr.bary[2] * C.row(tri[2]).transpose();
-        if (lit) {
-          const size_t f2 = 2 * static_cast<size_t>(fr.face);
-          col = c.shade[f2] * col + Eigen::Vector3d::Constant(c.shade[f2 + 1]);
-        }
-        num += fr.weight * col;
+        num += fr.weight * fragment_colour(c, C, faces_, fr);
         den += fr.weight;
       }
       for (int ch = 0; ch < 3; ++ch) out.rgb.at(j, i, ch) = static_cast<float>(num[ch] / den);
@@ -420,13 +427,7 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
       std::vector<Eigen::Vector3d> colours(rgb ? n : 0);
       if (rgb) {
         for (size_t q = 0; q < n; ++q) {
-          const auto tri = faces_.row(fr[q].face);
-          colours[q] = fr[q].bary[0] * c.C.row(tri[0]).transpose() + fr[q].bary[1] * c.C.row(tri[1]).transpose() +
-                       fr[q].bary[2] * c.C.row(tri[2]).transpose();
-          if (lit) {
-            const size_t f2 = 2 * static_cast<size_t>(fr[q].face);
-            colours[q] = c.shade[f2] * colours[q] + Eigen::Vector3d::Constant(c.shade[f2 + 1]);
-          }
+          colours[q] = fragment_colour(c, c.C, faces_, fr[q]);
           pix += fr[q].weight * colours[q];
           den += fr[q].weight;
         }
@@ -462,10 +463,7 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
           double diffuse = 1;
           if (lit) {
             diffuse = c.shade[2 * static_cast<size_t>(f.face)];
-            const Eigen::Vector3d albedo = f.bary[0] * c.C.row(tri[0]).transpose() +
-                                           f.bary[1] * c.C.row(tri[1]).transpose() +
-                                           f.bary[2] * c.C.row(tri[2]).transpose();
-            g.shade[0] = gshaded.dot(albedo);
+            g.shade[0] = gshaded.dot(fragment_albedo(c.C, faces_, f));
             g.shade[1] = gshaded.sum();
           }
           const Eigen::Vector3d gcol = gshaded * diffuse;  // d loss / d the fragment's albedo

@@ -79,6 +79,11 @@ struct SoftImages {
   Image rgb;
 };
 
+/// The colour a fragment of `cache`'s forward pass blends: the albedo (vertex colours C at its barycentrics), shaded
+/// by its face's diffuse factor and specular term when the pass was lit.
+Eigen::Vector3d fragment_colour(const SoftRasterCache& cache, const Points& C, const Faces& F,
+                                const SoftRasterCache::Fragment& fr);
+
 /// A soft rasteriser for one mesh topology (the faces); positions and colours change between calls.
 class SoftRasterizer {
  public:

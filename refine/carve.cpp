@@ -84,8 +84,7 @@ Mesh carve_mesh(const std::vector<TargetView>& views, const Mesh* init, const Ca
                        std::string(init ? " and inside the starting mesh" : ""));
   CleanupSettings cs;
   cs.min_component_fraction = settings.min_component_fraction;
-  Mesh out = cleanup(r.mesh, cs);
-  out.colors.resize(0, 3);
+  const Mesh out = cleanup(r.mesh, cs);  // marching cubes gives no colours: refine starts the carved mesh grey
   if (report) {
     report->evaluations = r.evaluations;
     report->init_faces = init ? static_cast<long>(init->F.rows()) : 0;

@@ -12,23 +12,34 @@
 using namespace sdfkit;
 namespace fs = std::filesystem;
 
-TEST_CASE("sdfkit refine: a sphere fitted to a rendered box, files beside the mesh, scored by eval") {
-  const fs::path dir = test::scratch_dir("refine_cli");
+namespace {
+
+/// A fresh scratch folder `tag` holding box.obj (1.4 x 0.8 x 1.0) and its view set: `render --views 8 --size SIZE
+/// --elevation -20 50` into views/, the rendered mesh as gt.obj.
+fs::path box_view_set(const std::string& tag, int size) {
+  const fs::path dir = test::scratch_dir(tag);
   fs::remove_all(dir);
   fs::create_directories(dir);
-  // A box, 1.4 x 0.8 x 1.0, as OBJ.
   write_text_atomic((dir / "box.obj").string(),
                     "v -0.7 -0.4 -0.5\nv 0.7 -0.4 -0.5\nv 0.7 0.4 -0.5\nv -0.7 0.4 -0.5\n"
                     "v -0.7 -0.4 0.5\nv 0.7 -0.4 0.5\nv 0.7 0.4 0.5\nv -0.7 0.4 0.5\n"
                     "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\n"
                     "f 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n");
-  const std::string views = (dir / "views").string(), gt = (dir / "gt.obj").string();
-  test::CliRun r = test::run_sdfkit("render " + (dir / "box.obj").string() + " -o " + views +
-                                    " --views 8 --size 40 --elevation -20 50 --mesh-out " + gt);
+  const test::CliRun r = test::run_sdfkit("render " + (dir / "box.obj").string() + " -o " + (dir / "views").string() +
+                                          " --views 8 --size " + std::to_string(size) +
+                                          " --elevation -20 50 --mesh-out " + (dir / "gt.obj").string());
   REQUIRE_MESSAGE(r.code == 0, r.err);
-  REQUIRE(fs::exists(gt));
+  REQUIRE(fs::exists(dir / "gt.obj"));
+  return dir;
+}
+
+}  // namespace
+
+TEST_CASE("sdfkit refine: a sphere fitted to a rendered box, files beside the mesh, scored by eval") {
+  const fs::path dir = box_view_set("refine_cli", 40);
+  const std::string views = (dir / "views").string(), gt = (dir / "gt.obj").string();
   const std::string out = (dir / "out" / "box.ply").string();
-  r = test::run_sdfkit("refine " + views + " -o " + out + " --iters 120 --sphere-level 2 --views-per-step 3 --json");
+  test::CliRun r = test::run_sdfkit("refine " + views + " -o " + out + " --iters 120 --sphere-level 2 --views-per-step 3 --json");
   REQUIRE_MESSAGE(r.code == 0, r.err);
   const Json j = Json::parse(r.out);
   CHECK(j.at("steps") == 120);
@@ -66,20 +77,10 @@ TEST_CASE("sdfkit refine: a sphere fitted to a rendered box, files beside the me
 }
 
 TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual hull, reported in the JSON") {
-  const fs::path dir = test::scratch_dir("refine_cli_carve");
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  write_text_atomic((dir / "box.obj").string(),
-                    "v -0.7 -0.4 -0.5\nv 0.7 -0.4 -0.5\nv 0.7 0.4 -0.5\nv -0.7 0.4 -0.5\n"
-                    "v -0.7 -0.4 0.5\nv 0.7 -0.4 0.5\nv 0.7 0.4 0.5\nv -0.7 0.4 0.5\n"
-                    "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\n"
-                    "f 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n");
+  const fs::path dir = box_view_set("refine_cli_carve", 48);
   const std::string views = (dir / "views").string(), gt = (dir / "gt.obj").string();
-  test::CliRun r = test::run_sdfkit("render " + (dir / "box.obj").string() + " -o " + views +
-                                    " --views 8 --size 48 --elevation -20 50 --mesh-out " + gt);
-  REQUIRE_MESSAGE(r.code == 0, r.err);
   const std::string out = (dir / "carved.obj").string();
-  r = test::run_sdfkit("refine " + views + " -o " + out +
+  test::CliRun r = test::run_sdfkit("refine " + views + " -o " + out +
                        " --carve --carve-res 41 --iters 10 --views-per-step 2 --preview 0 --json");
   REQUIRE_MESSAGE(r.code == 0, r.err);
   const Json j = Json::parse(r.out);

@@ -64,14 +64,7 @@ double loss_in_double(const SoftRasterizer& r, const Points& V, const Points& C,
       for (int64_t q = cache.offsets[k]; q < cache.offsets[k + 1]; ++q) {
         const auto& f = cache.fragments[static_cast<size_t>(q)];
         transmit *= 1 - f.p;
-        const auto tri = r.faces().row(f.face);
-        Eigen::Vector3d col = f.bary[0] * C.row(tri[0]).transpose() + f.bary[1] * C.row(tri[1]).transpose() +
-                              f.bary[2] * C.row(tri[2]).transpose();
-        if (!cache.shade.empty()) {
-          const size_t f2 = 2 * static_cast<size_t>(f.face);
-          col = cache.shade[f2] * col + Eigen::Vector3d::Constant(cache.shade[f2 + 1]);
-        }
-        num += f.weight * col;
+        num += f.weight * fragment_colour(cache, C, r.faces(), f);
         den += f.weight;
       }
       l += L.wa.at(j, i) * (1 - transmit);

@@ -35,6 +35,15 @@ TensorT<T> random_tensor(const Shape& s, Rng& rng, double lo, double hi) {
   return t;
 }
 
+/// pred (1 x N) of one image and its points through `net`, with a fresh workspace.
+TensorT<double> predict_points(const SdfNetT<double>& net, const TensorT<double>& image, const Camera& cam,
+                               const TensorT<double>& points) {
+  SdfNetT<double>::Workspace ws;
+  TensorT<double> pred;
+  net.forward(image, {cam}, points, ws, pred);
+  return pred;
+}
+
 /// Every variant with the default stride-2 first stage, the two-stream network with a full-resolution one, and the
 /// two-stream network reading RGB + mask.
 std::vector<SdfNetConfig> tiny_configs() {
@@ -209,10 +218,7 @@ TEST_CASE("SDF network: a binary network adopting a two-stream model starts with
   const TensorT<double> image = random_tensor<double>({1, 3, S, S}, rng, 0.0, 1.0);
   const TensorT<double> points = random_tensor<double>({1, N, 3}, rng, -0.6, 0.6);
   const Camera cam = look_at(70, 28, 2.4, S, S);
-  SdfNetT<double>::Workspace ws, wb;
-  TensorT<double> ps, pb;
-  sdf.forward(image, {cam}, points, ws, ps);
-  binary.forward(image, {cam}, points, wb, pb);
+  const TensorT<double> ps = predict_points(sdf, image, cam, points), pb = predict_points(binary, image, cam, points);
   double spread = 0;
   for (int i = 0; i < N; ++i) {
     CHECK(pb[i] == doctest::Approx(-10.0 * ps[i]).epsilon(1e-12).scale(1.0));
@@ -248,11 +254,9 @@ TEST_CASE("SDF network: mirror features read the image where the point's mirror 
   const TensorT<double> image = random_tensor<double>({1, 3, S, S}, rng, 0.0, 1.0);
   const TensorT<double> points = random_tensor<double>({1, N, 3}, rng, -0.6, 0.6);
   const Camera cam = look_at(35, 20, 2.0, S, S);
-  SdfNetT<double>::Workspace wp, wm;
-  TensorT<double> pp, pm;
-  plain.forward(image, {cam}, points, wp, pp);
+  const TensorT<double> pp = predict_points(plain, image, cam, points);
   // 1. Adopted with zero mirror weights: the same field.
-  mirror.forward(image, {cam}, points, wm, pm);
+  TensorT<double> pm = predict_points(mirror, image, cam, points);
   for (int i = 0; i < N; ++i) CHECK(pm[i] == doctest::Approx(pp[i]).epsilon(1e-12).scale(1.0));
   // 2. Own local weights zeroed, mirror weights = the plain network's local weights, mirrored camera.
   const size_t tail = plain.n_params();
@@ -272,10 +276,10 @@ TEST_CASE("SDF network: mirror features read the image where the point's mirror 
   std::fill(v.begin() + static_cast<std::ptrdiff_t>(local_begin), v.begin() + static_cast<std::ptrdiff_t>(local_end), 0.0);
   Camera mirrored = cam;
   mirrored.R = cam.R * Eigen::Vector3d(-1, 1, 1).asDiagonal();
-  mirror.forward(image, {mirrored}, points, wm, pm);
+  pm = predict_points(mirror, image, mirrored, points);
   for (int i = 0; i < N; ++i) CHECK(pm[i] == doctest::Approx(pp[i]).epsilon(1e-10).scale(1.0));
   // ... which the unmirrored camera does not give (the mirror weights are read).
-  mirror.forward(image, {cam}, points, wm, pm);
+  pm = predict_points(mirror, image, cam, points);
   double differs = 0;
   for (int i = 0; i < N; ++i) differs += std::abs(pm[i] - pp[i]);
   CHECK(differs > 1e-6);
@@ -294,9 +298,7 @@ TEST_CASE("SDF network: mirror features read the image where the point's mirror 
   masked_mirror.adopt_parameters(plain);
   TensorT<double> image4({1, 4, S, S}, 0.0);
   std::copy(image.ptr(), image.ptr() + 3 * S * S, image4.ptr());
-  SdfNetT<double>::Workspace w4;
-  TensorT<double> p4;
-  masked_mirror.forward(image4, {cam}, points, w4, p4);
+  const TensorT<double> p4 = predict_points(masked_mirror, image4, cam, points);
   for (int i = 0; i < N; ++i) CHECK(p4[i] == doctest::Approx(pp[i]).epsilon(1e-12).scale(1.0));
   CHECK_THROWS_AS(plain.adopt_parameters(mirror), InvalidInput);
   CHECK_THROWS_AS(mirror.adopt_parameters(mirror), InvalidInput);
