@@ -10,6 +10,7 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <unordered_set>
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
@@ -151,6 +152,56 @@ uint64_t order_key(int i, int j, int k) {
   return (uint64_t(k + 1) << 42) | (uint64_t(j + 1) << 21) | uint64_t(i + 1);
 }
 
+/// Surface following (ExtractSettings::follow_surface): grows `ordered` (final and padding cells, sorted by
+/// order_key, corners evaluated) across every cell face whose four corners straddle iso, evaluating the new cells'
+/// corners level by level, and sorts it again. Returns the evaluations it made.
+template <class RequestCorners>
+long follow_surface(std::vector<std::pair<uint64_t, Cell>>& ordered, const ExtractSettings& s, const BlockStore& store,
+                    Evaluator& eval, const RequestCorners& request_corners) {
+  const int n = s.resolution - 1;
+  const int lo = s.close_boundary ? -1 : 0, hi = s.close_boundary ? n : n - 1;  // cell index range (with padding)
+  auto value = [&](int i, int j, int k) {
+    return (i >= 0 && j >= 0 && k >= 0 && i <= n && j <= n && k <= n) ? double(store.get(i, j, k)) : detail::kPadValue;
+  };
+  std::unordered_set<uint64_t> member;
+  member.reserve(ordered.size() * 2);
+  std::vector<Cell> frontier;
+  frontier.reserve(ordered.size());
+  for (const auto& [key, c] : ordered) {
+    member.insert(key);
+    frontier.push_back(c);
+  }
+  long evaluations = 0;
+  std::vector<Cell> added;
+  while (!frontier.empty()) {
+    added.clear();
+    for (const Cell& c : frontier) {
+      double v[detail::kCorners];
+      for (int corner = 0; corner < detail::kCorners; ++corner)
+        v[corner] = value(c.i + (corner & 1), c.j + ((corner >> 1) & 1), c.k + ((corner >> 2) & 1));
+      for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side) {
+          bool in = false, out = false;
+          for (int corner = 0; corner < detail::kCorners; ++corner)
+            if (((corner >> axis) & 1) == side) (v[corner] < 0 ? in : out) = true;
+          if (!(in && out)) continue;
+          Cell nb = c;
+          int& coord = axis == 0 ? nb.i : axis == 1 ? nb.j : nb.k;
+          coord += side ? 1 : -1;
+          if (coord < lo || coord > hi) continue;
+          if (!member.insert(order_key(nb.i, nb.j, nb.k)).second) continue;
+          added.push_back(nb);
+          request_corners(nb);
+        }
+    }
+    evaluations += eval.flush();
+    for (const Cell& c : added) ordered.push_back({order_key(c.i, c.j, c.k), c});
+    std::swap(frontier, added);
+  }
+  tbb::parallel_sort(ordered.begin(), ordered.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  return evaluations;
+}
+
 }  // namespace
 
 DenseGrid sample_dense(const BatchField& field, const ExtractSettings& s, long* evaluations) {
@@ -264,13 +315,21 @@ ExtractResult adaptive_extract(const BatchField& field, const ExtractSettings& s
   }
   tbb::parallel_sort(ordered.begin(), ordered.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   auto inside_grid = [&](int i, int j, int k) { return i >= 0 && j >= 0 && k >= 0 && i <= n && j <= n && k <= n; };
-  for (const auto& [key, c] : ordered)
+  auto request_corners = [&](const Cell& c) {
     for (int corner = 0; corner < detail::kCorners; ++corner) {
       const int ci = c.i + (corner & 1), cj = c.j + ((corner >> 1) & 1), ck = c.k + ((corner >> 2) & 1);
       if (inside_grid(ci, cj, ck)) eval.request(ci, cj, ck);
     }
+  };
+  for (const auto& entry : ordered) request_corners(entry.second);
   r.level_cells.push_back(static_cast<long>(final_cells.size()));
-  r.level_evaluations.push_back(eval.flush());
+  long final_evaluations = eval.flush();
+  if (s.follow_surface) {
+    const size_t before = ordered.size();
+    final_evaluations += follow_surface(ordered, s, store, eval, request_corners);
+    r.followed_cells = static_cast<long>(ordered.size() - before);
+  }
+  r.level_evaluations.push_back(final_evaluations);
   r.evaluations = eval.evaluations();
 
   // Marching cubes over consecutive chunks of the ordered cells, one builder per chunk, in parallel; appending

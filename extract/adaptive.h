@@ -49,13 +49,21 @@ struct ExtractSettings {
   bool close_boundary = true;
   /// Refinement test of adaptive_extract.
   RefineRule refine = RefineRule::kDistanceBound;
+  /// adaptive_extract only: after the refinement, follow the surface from the final cells kept. A final cell whose
+  /// face has corners on both sides of iso shares the surface with its neighbour across that face, which is added
+  /// (its corners evaluated) until no crossing face leads out of the set. Every surface component that touches a
+  /// kept cell is then extracted whole, exactly as dense_extract extracts it, even for a field the refinement test
+  /// misjudges (a pruned cell can no longer leave a hole); components no kept cell touches are still missed.
+  bool follow_surface = false;
 };
 
 struct ExtractResult {
   Mesh mesh;
   long evaluations = 0;                 ///< field evaluations (distinct points)
   std::vector<long> level_cells;        ///< cells examined per level (level 0 = coarse; last = final cells)
-  std::vector<long> level_evaluations;  ///< evaluations made per level
+  std::vector<long> level_evaluations;  ///< evaluations made per level (the last: final cells' corners, then
+                                        ///< the cells surface following added)
+  long followed_cells = 0;              ///< final cells added by surface following (ExtractSettings::follow_surface)
   double seconds = 0;                   ///< wall time including field evaluation
   MarchingCubesStats mc;
 };

@@ -6,8 +6,10 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
+#include <string>
 
 using namespace sdfkit;
 using sdfkit::test::bad_edges;
@@ -119,6 +121,49 @@ TEST_CASE("safety factor: an over-estimating field needs safety = its Lipschitz 
   const ExtractResult unsafe = adaptive_extract(doubled, s);
   CHECK_FALSE(identical(dense.mesh, unsafe.mesh));
   CHECK(bad_edges(unsafe.mesh) > 0);
+}
+
+TEST_CASE("surface following closes the holes a misjudging field leaves, exactly as dense") {
+  // Fields that over-estimate distances far beyond the safety factor (like an occupancy logit): the refinement
+  // drops cells the surface runs through; following the surface from the cells kept restores them all.
+  const std::vector<std::pair<const char*, BatchField>> fields = {
+      {"doubled sphere", pointwise([](const Vec3& p) { return 2.0 * sphere_sdf(p, Vec3::Zero(), 0.63); })},
+      {"3 x (sphere + thin rod)", pointwise([](const Vec3& p) {
+         // A rod of radius 0.04 (1.2 final cells) along y from the sphere's centre down to y = -0.9.
+         const double along = std::clamp(p.y(), -0.9, 0.3);
+         const double rod = std::hypot(p.x(), p.z(), p.y() - along) - 0.04;
+         return 3.0 * std::min(sphere_sdf(p, Vec3(0, 0.3, 0), 0.35), rod);
+       })},
+      {"10 x sphere leaving the box", pointwise([](const Vec3& p) { return 10.0 * sphere_sdf(p, Vec3(0.6, 0, 0), 0.9); })}};
+  for (const auto& [name, field] : fields) {
+    INFO(std::string(name));
+    ExtractSettings s = settings(65, 9);
+    const ExtractResult dense = dense_extract(field, s);
+    const ExtractResult pruned = adaptive_extract(field, s);
+    INFO(pruned.mesh.F.rows() << " faces pruned, " << dense.mesh.F.rows() << " dense");
+    CHECK(bad_edges(pruned.mesh) > 0);  // the refinement alone leaves holes
+    CHECK(pruned.followed_cells == 0);
+    s.follow_surface = true;
+    const ExtractResult followed = adaptive_extract(field, s);
+    CHECK(followed.followed_cells > 0);
+    CHECK(identical(dense.mesh, followed.mesh));
+    CHECK(bad_edges(followed.mesh) == 0);
+    CHECK(followed.evaluations < dense.evaluations / 2);
+    long sum = 0;
+    for (long e : followed.level_evaluations) sum += e;
+    CHECK(sum == followed.evaluations);
+  }
+}
+
+TEST_CASE("surface following adds nothing when the refinement already holds the surface") {
+  const BatchField torus = pointwise([](const Vec3& p) { return torus_sdf(p, Vec3(0.0, 0.03, -0.02), 0.6, 0.18); });
+  ExtractSettings s = settings(65, 9);
+  const ExtractResult plain = adaptive_extract(torus, s);
+  s.follow_surface = true;
+  const ExtractResult followed = adaptive_extract(torus, s);
+  CHECK(followed.followed_cells == 0);
+  CHECK(followed.evaluations == plain.evaluations);
+  CHECK(identical(plain.mesh, followed.mesh));
 }
 
 TEST_CASE("a surface leaving the box is capped, identically in both paths") {
