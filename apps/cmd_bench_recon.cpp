@@ -30,7 +30,9 @@ std::function<int()> setup_bench_recon(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--dense-max-res", o->s.dense_max, "run the dense baseline only up to this resolution")
       ->capture_default_str();
-  app.add_option("--safety", o->s.safety, "safety factor of the adaptive extraction")->capture_default_str();
+  app.add_option("--safety", o->s.safety,
+                 "safety factor of the adaptive extraction (default: the model's, 2 for an SDF model, 10 for a binary "
+                 "one)");
   app.add_option("--repeats", o->s.repeats, "timed runs per (shape, setting); the median is reported")
       ->capture_default_str();
   app.add_option("-o,--out", o->out, "also write the table as CSV to OUT.csv and a plot to OUT.svg");

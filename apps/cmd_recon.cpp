@@ -80,6 +80,7 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
   for (const char* f : {"--pose-model", "--flip-check", "--pose-distances"})
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
+  if (dense && given("--no-follow")) throw InvalidInput("--no-follow applies to the adaptive extraction, not to --dense");
   for (const char* f : {"--segment", "--box", "--seg-model"})
     if (mask && given(f)) throw InvalidInput(std::string(f) + " does not apply with --mask (the mask gives the object)");
 }
@@ -155,9 +156,12 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_option("--res", o->s.resolution, "effective grid resolution (points per axis: 65, 129, 257, ...)")
       ->capture_default_str();
   app.add_option("--safety", o->s.safety,
-                 "Lipschitz allowance of the network field for the adaptive extraction (1 = exact SDF)")
-      ->capture_default_str();
+                 "Lipschitz allowance of the network field for the adaptive extraction (1 = exact SDF; default: the "
+                 "model's, 2 for an SDF model, 10 for a binary one)");
   app.add_flag("--dense", o->s.dense, "evaluate the full grid instead of the adaptive extraction (slower baseline)");
+  app.add_flag("--no-follow{false}", o->s.follow_surface,
+               "adaptive extraction without surface following: cells the safety bound misjudges leave holes (for "
+               "comparison)");
   app.add_option("--keep-fraction", o->s.min_component_fraction,
                  "drop mesh components with fewer faces than this fraction of the largest (DISN: 0.3)")
       ->capture_default_str();
@@ -265,9 +269,6 @@ std::function<int()> setup_recon(CLI::App& app) {
     if (!estimate && !sidecar) fixed_camera = read_camera(o->cam);
     const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
                                          estimate ? require_model_path(o->pose_model, "--pose-model") : std::string());
-    if (rec->dense_extraction(o->s) && !o->s.dense && app.get_option("--safety")->count() > 0)
-      throw InvalidInput("--safety applies to the adaptive extraction; " + o->model +
-                         " is a binary-variant model, whose occupancy field is extracted on the dense grid");
     Image mask, missing;
     if (!o->mask.empty()) mask = read_image(o->mask);
     if (!o->missing.empty()) missing = read_image(o->missing);

@@ -52,6 +52,11 @@ ReconBenchResult run_recon_bench(const ReconBenchSettings& settings,
   result.split = settings.split;
   result.cam = settings.cam;
   result.safety = settings.safety;
+  {
+    ReconSettings rs;
+    rs.safety = settings.safety;
+    result.safety = rec->extraction_safety(rs);
+  }
   result.shapes = data.size();
   std::vector<ReconBenchRow>& rows = result.rows;
   for (int r : settings.resolutions) {

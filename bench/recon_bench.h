@@ -20,7 +20,7 @@ struct ReconBenchSettings {
   std::string cam = "gt";                   ///< "gt" = the view's true camera, "est" = the pose network's estimate
   std::vector<int> resolutions{65, 129, 257};  ///< effective resolutions (grid points per axis)
   int dense_max = 257;                      ///< run the dense baseline only up to this resolution
-  double safety = 2.0;                      ///< safety factor of the adaptive extraction
+  double safety = 0;                        ///< safety factor of the adaptive extraction (0 = the model's default)
   int repeats = 1;                          ///< timed runs per (shape, setting); the median is reported
 };
 
@@ -33,7 +33,7 @@ struct ReconBenchRow {
 
 struct ReconBenchResult {
   std::string data, split, cam;  ///< as set
-  double safety = 0;
+  double safety = 0;             ///< the safety factor used (the model's default when none was set)
   size_t shapes = 0;             ///< shapes reconstructed
   std::vector<ReconBenchRow> rows;  ///< per resolution: adaptive, then dense (up to dense_max)
 };

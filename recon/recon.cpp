@@ -150,8 +150,9 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
 }
 
 
-bool Reconstructor::dense_extraction(const ReconSettings& settings) const {
-  return settings.dense || sdf_->config().variant == SdfVariant::kBinary;
+
+double Reconstructor::extraction_safety(const ReconSettings& settings) const {
+  return settings.safety > 0 ? settings.safety : default_extraction_safety(sdf_->config().variant);
 }
 
 Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings,
@@ -178,9 +179,10 @@ Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& came
   es.box_min = Vec3::Constant(-settings.box_half);
   es.box_size = 2 * settings.box_half;
   es.iso = 0.0;
-  es.safety = settings.safety;
+  es.safety = extraction_safety(settings);
   es.close_boundary = true;
-  const ExtractResult ex = dense_extraction(settings) ? dense_extract(field, es) : adaptive_extract(field, es);
+  es.follow_surface = settings.follow_surface;
+  const ExtractResult ex = settings.dense ? dense_extract(field, es) : adaptive_extract(field, es);
   stats.evaluations = ex.evaluations;
   stats.field = field_seconds;
   stats.extract = std::max(0.0, ex.seconds - field_seconds);
@@ -210,11 +212,11 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
   const int refine_res = std::min(settings.refine_resolution, settings.resolution);
   for (const int res : {settings.resolution, settings.refine_rounds > 0 ? refine_res : settings.resolution}) {
     require(res >= 3 && settings.coarse_resolution >= 2, what + ": resolution too small");
-    require(dense_extraction(settings) || ((res - 1) % (settings.coarse_resolution - 1) == 0 &&
+    require(settings.dense || ((res - 1) % (settings.coarse_resolution - 1) == 0 &&
                                power_of_two((res - 1) / (settings.coarse_resolution - 1))),
             what + ": (resolution - 1) / (coarse resolution - 1) must be a power of two, e.g. 65, 129, 257 with 17");
   }
-  require(settings.safety >= 1.0, what + ": safety factor must be >= 1");
+  require(settings.safety == 0 || settings.safety >= 1.0, what + ": safety factor must be >= 1 (or 0: the model's default)");
   require((settings.pose_distance_min == 0 && settings.pose_distance_max == 0) ||
               (settings.pose_distance_min > 0 && settings.pose_distance_min <= settings.pose_distance_max &&
                std::isfinite(settings.pose_distance_max)),
@@ -276,7 +278,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
   r.mesh = reconstruct(full_input, r.camera, settings, settings.resolution, what, st);
   r.evaluations += st.evaluations;
   r.components_removed = st.components_removed;
-  r.dense = dense_extraction(settings);
+  r.dense = settings.dense;
   r.timings.encode = st.encode;
   r.timings.field = st.field;
   r.timings.extract = st.extract;

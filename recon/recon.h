@@ -4,7 +4,8 @@
 //   -> camera: estimated by the pose network, or given
 //   -> SDF network: per-shape encoding once, then batches of points
 //   -> adaptive extraction of the 0 level (extract/adaptive.h; safety factor > 1 because the network's field is
-//      only an approximate SDF), clean-up of small components (extract/cleanup.h)
+//      only an approximate SDF; the surface followed from the cells kept, so that a cell the bound misjudged leaves
+//      no hole), clean-up of small components (extract/cleanup.h)
 //   -> closed mesh in the object frame + a preview image (input | render from the input view | two other views).
 #pragma once
 
@@ -34,13 +35,24 @@ inline CameraRefineSettings recon_refine_defaults() {
   return s;
 }
 
+/// The adaptive extraction's safety factor for a model of `variant` when ReconSettings::safety is 0. An SDF network's
+/// field is nearly a distance: 2. A binary-variant model's field (-logit / sdf_scale) is flat inside and outside and
+/// steep at the surface; with surface following the refinement only has to touch every surface component once, and
+/// 10 does that for the thinnest test shapes (docs/recon.md, "Extraction").
+inline double default_extraction_safety(SdfVariant variant) { return variant == SdfVariant::kBinary ? 10.0 : 2.0; }
+
 struct ReconSettings {
   int resolution = 129;          ///< final grid points per axis (65, 129, 257, ...)
   int coarse_resolution = 17;    ///< first level of the adaptive extraction
-  double safety = 2.0;           ///< Lipschitz allowance of the network field (1 = trust it as a true SDF)
+  /// Lipschitz allowance of the network field for the adaptive extraction (1 = trust it as a true SDF); 0 = the
+  /// model's default (default_extraction_safety).
+  double safety = 0;
   double box_half = 1.05;        ///< sampled cube [-box_half, box_half]^3 (object frame: the unit sphere + 5%)
-  bool dense = false;            ///< evaluate the full grid instead (the baseline of `sdfkit bench recon`); always on
-                                ///< for a binary-variant model (Reconstructor::dense_extraction)
+  bool dense = false;            ///< evaluate the full grid instead (the baseline of `sdfkit bench recon`)
+  /// Follow the surface from the adaptive extraction's final cells (ExtractSettings::follow_surface): every surface
+  /// component the refinement touches comes out whole, as on the dense grid. What makes the adaptive extraction
+  /// right for a binary-variant model, whose field (-logit / sdf_scale) is no distance and breaks the bound.
+  bool follow_surface = true;
   double min_component_fraction = 0.3;  ///< DISN's clean-up: drop components under 30% of the largest (faces)
   bool preview = true;
   int preview_size = 192;        ///< side of each preview panel in pixels
@@ -95,7 +107,7 @@ struct ReconResult {
   std::vector<CameraRefineResult> refinements;  ///< one per refinement round (empty when off)
   long evaluations = 0;         ///< field evaluations
   int components_removed = 0;
-  bool dense = false;           ///< the full grid was evaluated (Reconstructor::dense_extraction)
+  bool dense = false;           ///< the full grid was evaluated (ReconSettings::dense)
   ReconTimings timings;
   Image preview;                ///< RGB, 4 panels side by side (empty when settings.preview is false)
 };
@@ -114,10 +126,8 @@ class Reconstructor {
 
   [[nodiscard]] const SdfNet& sdf() const { return *sdf_; }
   [[nodiscard]] bool has_pose() const { return pose_ != nullptr; }
-  /// Whether the extraction evaluates the full grid: settings.dense, or always for a binary-variant model, whose field
-  /// (-logit / sdf_scale) is no distance: the adaptive extraction's pruning bound |f| <= safety x half-diagonal does
-  /// not hold for it and drops whole parts.
-  [[nodiscard]] bool dense_extraction(const ReconSettings& settings) const;
+  /// The safety factor the adaptive extraction uses: settings.safety, or the model's default when it is 0.
+  [[nodiscard]] double extraction_safety(const ReconSettings& settings) const;
 
   /// Reconstruct one image: frame it (settings.framing), then run_input. `camera` (null = estimate it) is a camera of
   /// the input image (a camera of another size is scaled to the image's size first). `what` names the input in
