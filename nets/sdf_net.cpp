@@ -664,7 +664,7 @@ bool SdfNetT<T>::can_adopt_as_binary(const SdfNetConfig& from, const SdfNetConfi
   if (from.variant != SdfVariant::kTwoStream || to.variant != SdfVariant::kBinary) return false;
   SdfNetConfig f = from;
   f.variant = SdfVariant::kBinary;
-  return f.to_json() == to.to_json();
+  return f.to_json() == to.to_json() || can_adopt(f, to);
 }
 
 template <typename T>
@@ -672,6 +672,17 @@ void SdfNetT<T>::adopt_as_binary(const SdfNetT& sdf_model, T scale) {
   require(can_adopt_as_binary(sdf_model.config_, config_),
           "SDF network: adopt_as_binary needs a two-stream model of this binary network's architecture");
   require(scale > 0 && std::isfinite(static_cast<double>(scale)), "SDF network: adopt_as_binary needs a positive scale");
+  SdfNetConfig same = sdf_model.config_;
+  same.variant = SdfVariant::kBinary;
+  if (same.to_json() != config_.to_json()) {
+    // The model lacks the mask channel or the mirror features: widen it first (zero weights), as adopt_parameters.
+    SdfNetConfig wide = config_;
+    wide.variant = SdfVariant::kTwoStream;
+    SdfNetT widened(wide);
+    widened.adopt_parameters(sdf_model);
+    adopt_as_binary(widened, scale);
+    return;
+  }
   require(sdf_model.store_.size() == store_.size(), "SDF network: parameter layouts differ");
   std::copy(sdf_model.store_.values.begin(), sdf_model.store_.values.begin() + static_cast<std::ptrdiff_t>(store_.size()),
             store_.values.begin());

@@ -157,8 +157,10 @@ class SdfNetT {
   static bool can_adopt(const SdfNetConfig& from, const SdfNetConfig& to);
   /// Start this binary network from a two-stream SDF model of the same architecture (the same configuration but for
   /// the variant): its parameters, with each stream's output layer multiplied by -scale, so that the logit starts
-  /// as -scale x the model's pred (positive inside) and field() as scale x the model's field. InvalidInput unless
-  /// this is binary and `sdf_model` two-stream with otherwise equal configurations.
+  /// as -scale x the model's pred (positive inside) and field() as scale x the model's field. The model may also lack
+  /// the mask channel and/or the mirror features this network has (zero weights for them, as adopt_parameters; the
+  /// equality then holds on inputs whose mask is 0). InvalidInput unless this is binary and `sdf_model` two-stream
+  /// with otherwise equal configurations.
   void adopt_as_binary(const SdfNetT& sdf_model, T scale);
   static bool can_adopt_as_binary(const SdfNetConfig& from, const SdfNetConfig& to);
 

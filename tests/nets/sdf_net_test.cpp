@@ -237,6 +237,43 @@ TEST_CASE("SDF network: a binary network adopting a two-stream model starts with
   CHECK_FALSE(SdfNetT<double>::can_adopt_as_binary(binary_config, sdf_config));
 }
 
+TEST_CASE("SDF network: a binary RGB + mask network with mirror features adopting an RGB two-stream model") {
+  // One step from an RGB model without mirror features to the binary variant with both: logit = -scale x pred on
+  // inputs with nothing missing.
+  const SdfNetConfig rgb_config = tiny_config(SdfVariant::kTwoStream, 1);
+  SdfNetConfig binary_config = rgb_config;
+  binary_config.variant = SdfVariant::kBinary;
+  binary_config.input_channels = 4;
+  binary_config.mirror_features = true;
+  REQUIRE_FALSE(rgb_config.mirror_features);
+  SdfNetT<double> rgb(rgb_config), binary(binary_config);
+  rgb.init(5);
+  binary.init(6);
+  CHECK(SdfNetT<double>::can_adopt_as_binary(rgb_config, binary_config));
+  binary.adopt_as_binary(rgb, 10.0);
+  Rng rng(4);
+  const int N = 30, S = 17;
+  TensorT<double> image4 = random_tensor<double>({1, 4, S, S}, rng, 0.0, 1.0);
+  for (int i = 0; i < S * S; ++i) image4[3 * S * S + i] = 0.0;
+  TensorT<double> image3({1, 3, S, S});
+  std::copy(image4.ptr(), image4.ptr() + 3 * S * S, image3.ptr());
+  const TensorT<double> points = random_tensor<double>({1, N, 3}, rng, -0.6, 0.6);
+  const Camera cam = look_at(70, 28, 2.4, S, S);
+  const TensorT<double> ps = predict_points(rgb, image3, cam, points), pb = predict_points(binary, image4, cam, points);
+  double spread = 0;
+  for (int i = 0; i < N; ++i) {
+    CHECK(pb[i] == doctest::Approx(-10.0 * ps[i]).epsilon(1e-12).scale(1.0));
+    spread += std::abs(ps[i]);
+  }
+  CHECK(spread > 1e-3);
+  // The other way (a binary model's mask channel dropped) is refused.
+  SdfNetConfig rgb_binary = rgb_config;
+  rgb_binary.variant = SdfVariant::kBinary;
+  SdfNetConfig masked_sdf = binary_config;
+  masked_sdf.variant = SdfVariant::kTwoStream;
+  CHECK_FALSE(SdfNetT<double>::can_adopt_as_binary(masked_sdf, rgb_binary));
+}
+
 TEST_CASE("SDF network: mirror features read the image where the point's mirror image projects") {
   // Independent reference: with its own local weights zeroed and its mirror weights set to a plain network's
   // local weights, a mirror network seen through the mirrored camera R diag(-1, 1, 1) projects (-x, y, z) where
