@@ -36,6 +36,17 @@ TensorT<T> random_tensor(const Shape& s, Rng& rng, double lo, double hi) {
 }
 
 /// pred (1 x N) of one image and its points through `net`, with a fresh workspace.
+/// A binary network adopted from an SDF model: its logit is -scale x the model's pred at every point, and the pred is
+/// not all zeros (the comparison would be vacuous).
+void check_logit_is_scaled_pred(const TensorT<double>& logit, const TensorT<double>& pred, int n, double scale) {
+  double spread = 0;
+  for (int i = 0; i < n; ++i) {
+    CHECK(logit[i] == doctest::Approx(-scale * pred[i]).epsilon(1e-12).scale(1.0));
+    spread += std::abs(pred[i]);
+  }
+  CHECK(spread > 1e-3);
+}
+
 TensorT<double> predict_points(const SdfNetT<double>& net, const TensorT<double>& image, const Camera& cam,
                                const TensorT<double>& points) {
   SdfNetT<double>::Workspace ws;
@@ -219,12 +230,7 @@ TEST_CASE("SDF network: a binary network adopting a two-stream model starts with
   const TensorT<double> points = random_tensor<double>({1, N, 3}, rng, -0.6, 0.6);
   const Camera cam = look_at(70, 28, 2.4, S, S);
   const TensorT<double> ps = predict_points(sdf, image, cam, points), pb = predict_points(binary, image, cam, points);
-  double spread = 0;
-  for (int i = 0; i < N; ++i) {
-    CHECK(pb[i] == doctest::Approx(-10.0 * ps[i]).epsilon(1e-12).scale(1.0));
-    spread += std::abs(ps[i]);
-  }
-  CHECK(spread > 1e-3);  // not a vacuous comparison of zeros
+  check_logit_is_scaled_pred(pb, ps, N, 10.0);
   // Only a two-stream model of the same architecture, into a binary network, with a positive scale.
   SdfNetConfig other = binary_config;
   other.global_features = 5;
@@ -260,12 +266,7 @@ TEST_CASE("SDF network: a binary RGB + mask network with mirror features adoptin
   const TensorT<double> points = random_tensor<double>({1, N, 3}, rng, -0.6, 0.6);
   const Camera cam = look_at(70, 28, 2.4, S, S);
   const TensorT<double> ps = predict_points(rgb, image3, cam, points), pb = predict_points(binary, image4, cam, points);
-  double spread = 0;
-  for (int i = 0; i < N; ++i) {
-    CHECK(pb[i] == doctest::Approx(-10.0 * ps[i]).epsilon(1e-12).scale(1.0));
-    spread += std::abs(ps[i]);
-  }
-  CHECK(spread > 1e-3);
+  check_logit_is_scaled_pred(pb, ps, N, 10.0);
   // The other way (a binary model's mask channel dropped) is refused.
   SdfNetConfig rgb_binary = rgb_config;
   rgb_binary.variant = SdfVariant::kBinary;
