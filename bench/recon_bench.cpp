@@ -51,11 +51,10 @@ ReconBenchResult run_recon_bench(const ReconBenchSettings& settings,
   result.data = settings.data;
   result.split = settings.split;
   result.cam = settings.cam;
-  result.safety = settings.safety;
   {
     ReconSettings rs;
     rs.safety = settings.safety;
-    result.safety = rec->extraction_safety(rs);
+    result.safety = rec->extraction_safety(rs);  // the model's default when none was set
   }
   result.shapes = data.size();
   std::vector<ReconBenchRow>& rows = result.rows;

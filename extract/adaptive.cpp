@@ -152,6 +152,9 @@ uint64_t order_key(int i, int j, int k) {
   return (uint64_t(k + 1) << 42) | (uint64_t(j + 1) << 21) | uint64_t(i + 1);
 }
 
+/// Whether grid point (i, j, k) lies on the grid of n cells per axis (points 0..n); padding points do not.
+bool on_grid(int n, int i, int j, int k) { return i >= 0 && j >= 0 && k >= 0 && i <= n && j <= n && k <= n; }
+
 /// Surface following (ExtractSettings::follow_surface): grows `ordered` (final and padding cells, sorted by
 /// order_key, corners evaluated) across every cell face whose four corners straddle iso, evaluating the new cells'
 /// corners level by level, and sorts it again. Returns the evaluations it made.
@@ -161,7 +164,7 @@ long follow_surface(std::vector<std::pair<uint64_t, Cell>>& ordered, const Extra
   const int n = s.resolution - 1;
   const int lo = s.close_boundary ? -1 : 0, hi = s.close_boundary ? n : n - 1;  // cell index range (with padding)
   auto value = [&](int i, int j, int k) {
-    return (i >= 0 && j >= 0 && k >= 0 && i <= n && j <= n && k <= n) ? double(store.get(i, j, k)) : detail::kPadValue;
+    return on_grid(n, i, j, k) ? double(store.get(i, j, k)) : detail::kPadValue;
   };
   std::unordered_set<uint64_t> member;
   member.reserve(ordered.size() * 2);
@@ -314,7 +317,7 @@ ExtractResult adaptive_extract(const BatchField& field, const ExtractSettings& s
         }
   }
   tbb::parallel_sort(ordered.begin(), ordered.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  auto inside_grid = [&](int i, int j, int k) { return i >= 0 && j >= 0 && k >= 0 && i <= n && j <= n && k <= n; };
+  auto inside_grid = [n](int i, int j, int k) { return on_grid(n, i, j, k); };
   auto request_corners = [&](const Cell& c) {
     for (int corner = 0; corner < detail::kCorners; ++corner) {
       const int ci = c.i + (corner & 1), cj = c.j + ((corner >> 1) & 1), ck = c.k + ((corner >> 2) & 1);

@@ -149,8 +149,6 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
   return r;
 }
 
-
-
 double Reconstructor::extraction_safety(const ReconSettings& settings) const {
   return settings.safety > 0 ? settings.safety : default_extraction_safety(sdf_->config().variant);
 }
