@@ -135,8 +135,10 @@ TEST_CASE("surface following closes the holes a misjudging field leaves, exactly
          return 3.0 * std::min(sphere_sdf(p, Vec3(0, 0.3, 0), 0.35), rod);
        })},
       {"10 x sphere leaving the box", pointwise([](const Vec3& p) { return 10.0 * sphere_sdf(p, Vec3(0.6, 0, 0), 0.9); })}};
-  for (const auto& [name, field] : fields) {
-    INFO(std::string(name));
+  for (const auto& named : fields) {
+    const std::string name = named.first;  // a plain variable: lambdas (INFO) may not capture structured bindings in C++17
+    const BatchField& field = named.second;
+    INFO(name);
     ExtractSettings s = settings(65, 9);
     const ExtractResult dense = dense_extract(field, s);
     const ExtractResult pruned = adaptive_extract(field, s);
