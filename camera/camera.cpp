@@ -115,6 +115,16 @@ Camera turn_about_vertical(const Camera& cam, double degrees) {
   return out;
 }
 
+Camera mirror_camera(const Camera& cam) {
+  const Mat3 S = Vec3(-1, 1, 1).asDiagonal();
+  Camera out = cam;
+  out.R = S * cam.R * S;
+  out.t = S * cam.t;
+  out.K(0, 1) = -cam.K(0, 1);
+  out.K(0, 2) = cam.width - cam.K(0, 2);
+  return out;
+}
+
 LookAtParams look_at_params(const Camera& cam) {
   const Vec3 C = camera_center(cam);
   LookAtParams p;

@@ -66,6 +66,11 @@ Camera turn_about_vertical(const Camera& cam, double degrees);
 /// InvalidInput unless 0 < d_min <= d_max and |t| > 0.
 Camera distance_as_focal(const Camera& cam, double d_min, double d_max);
 
+/// The camera that sees the object mirrored across its x = 0 plane (x -> -x) as this camera's image flipped left to
+/// right (pixel u -> width - u): R' = S R M, t' = S t, cx' = width - cx, skew' = -skew, with M = S = diag(-1, 1, 1).
+/// R' is a proper rotation again: for a look-at camera, mirror_camera(look_at(a, e, d)) = look_at(-a, e, d).
+Camera mirror_camera(const Camera& cam);
+
 /// x_cam = R x + t.
 inline Vec3 to_camera(const Camera& cam, const Vec3& x) { return cam.R * x + cam.t; }
 

@@ -93,6 +93,35 @@ TEST_CASE("camera: turn_about_vertical moves a look-at camera's azimuth and sees
   }
 }
 
+TEST_CASE("camera: mirror_camera sees the mirrored object as the image flipped left to right") {
+  Rng rng(23);
+  for (int k = 0; k < 50; ++k) {
+    const double az = rng.uniform(0, 360), el = rng.uniform(-60, 60), d = rng.uniform(1, 4);
+    Camera cam = look_at(az, el, d, 160, 120);
+    const Camera m = mirror_camera(cam);
+    // A look-at camera at azimuth a becomes the one at -a, a proper rotation.
+    const Camera expect = look_at(-az, el, d, 160, 120);
+    CHECK((m.R - expect.R).norm() < 1e-12);
+    CHECK((m.t - expect.t).norm() < 1e-12);
+    CHECK(m.R.determinant() == doctest::Approx(1.0).epsilon(1e-12));
+    // Any camera (off-centre principal point, skew, translation off the axis): the point (-x, y, z) lands at
+    // (width - u, v) where (x, y, z) landed at (u, v).
+    cam.K(0, 1) = rng.uniform(-3, 3);
+    cam.K(0, 2) = rng.uniform(40, 120);
+    cam.K(1, 2) = rng.uniform(40, 80);
+    cam.t += Vec3(rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3), 0);
+    const Camera mm = mirror_camera(cam);
+    const Vec3 p = random_point(rng);
+    const Eigen::Vector2d a = project(cam, p), b = project(mm, Vec3(-p.x(), p.y(), p.z()));
+    CHECK(b.x() == doctest::Approx(cam.width - a.x()).epsilon(1e-12));
+    CHECK(b.y() == doctest::Approx(a.y()).epsilon(1e-12));
+    // An involution.
+    const Camera back = mirror_camera(mm);
+    CHECK((back.R - cam.R).norm() < 1e-15);
+    CHECK((back.K - cam.K).norm() < 1e-12);
+  }
+}
+
 TEST_CASE("camera: distance_as_focal keeps the origin's pixel and recovers the camera of a magnified image") {
   // In range: the camera comes back unchanged.
   const Camera in = look_at(40, 25, 2.7);
