@@ -155,6 +155,13 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_option("--occlude-seed", o->occlude_seed, "seed of --occlude half and rect")->capture_default_str();
   app.add_option("--res", o->s.resolution, "effective grid resolution (points per axis: 65, 129, 257, ...)")
       ->capture_default_str();
+  app.add_option("--threshold", o->s.threshold,
+                 "binary-variant models (the shipped one): the occupancy probability whose level set is the "
+                 "surface (Occupancy Networks' tau; lower keeps more inside). An error with an SDF model")
+      ->capture_default_str();
+  app.add_flag("--mirror-tta", o->s.mirror_tta,
+               "test-time augmentation: average the field with the one read from the input flipped left to right "
+               "through the mirrored camera (an exact symmetry of the task; twice the network work)");
   app.add_option("--safety", o->s.safety,
                  "Lipschitz allowance of the network field for the adaptive extraction (1 = exact SDF; default: the "
                  "model's, 2 for an SDF model, 10 for a binary one)");
@@ -269,6 +276,10 @@ std::function<int()> setup_recon(CLI::App& app) {
     if (!estimate && !sidecar) fixed_camera = read_camera(o->cam);
     const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
                                          estimate ? require_model_path(o->pose_model, "--pose-model") : std::string());
+    if (app.get_option("--threshold")->count() > 0 && rec->sdf().config().variant != SdfVariant::kBinary)
+      throw InvalidInput("--threshold applies to a binary-variant model; " + o->model + " is " +
+                         to_string(rec->sdf().config().variant) + " (its surface is the field's 0 level)");
+    (void)rec->surface_level(o->s);  // a threshold outside (0, 1) fails before any work
     Image mask, missing;
     if (!o->mask.empty()) mask = read_image(o->mask);
     if (!o->missing.empty()) missing = read_image(o->missing);

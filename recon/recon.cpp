@@ -13,6 +13,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <sstream>
 
 namespace sdfkit {
 
@@ -48,6 +49,16 @@ bool is_foreground(const Eigen::VectorXf& input, int i) {
 }
 
 }  // namespace
+
+Eigen::VectorXf flip_network_input(const Eigen::VectorXf& input, int size) {
+  const Eigen::Index plane = static_cast<Eigen::Index>(size) * size;
+  require(size > 0 && input.size() > 0 && input.size() % plane == 0,
+          "flip_network_input: input is not C x " + std::to_string(size) + " x " + std::to_string(size));
+  Eigen::VectorXf out(input.size());
+  for (Eigen::Index row = 0; row < input.size() / size; ++row)
+    out.segment(row * size, size) = input.segment(row * size, size).reverse();
+  return out;
+}
 
 Image input_foreground(const Eigen::VectorXf& input) {
   const int n = kNetImageSize * kNetImageSize;
@@ -153,6 +164,27 @@ double Reconstructor::extraction_safety(const ReconSettings& settings) const {
   return settings.safety > 0 ? settings.safety : default_extraction_safety(sdf_->config().variant);
 }
 
+namespace {
+std::string threshold_text(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+}  // namespace
+
+double Reconstructor::occupancy_threshold(const ReconSettings& settings) const {
+  if (sdf_->config().variant != SdfVariant::kBinary) return 0;
+  if (!(settings.threshold > 0 && settings.threshold < 1))
+    throw InvalidInput("occupancy threshold " + threshold_text(settings.threshold) + " is outside (0, 1)");
+  return settings.threshold;
+}
+
+double Reconstructor::surface_level(const ReconSettings& settings) const {
+  const double tau = occupancy_threshold(settings);
+  if (tau == 0) return 0;
+  return -std::log(tau / (1 - tau)) / sdf_->config().sdf_scale;
+}
+
 Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings,
                                 int resolution, const std::string& what, MeshStats& stats) const {
   auto t = Clock::now();
@@ -163,12 +195,25 @@ Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& came
   const Eigen::VectorXf net_input =
       network_input(input.head(3 * n), mask.size() ? &mask : nullptr, sdf_->config().input_channels);
   const SdfNet::ShapeCode code = sdf_->encode(net_input.data(), camera);
+  std::unique_ptr<SdfNet::ShapeCode> mirrored;
+  if (settings.mirror_tta) {
+    const Eigen::VectorXf flipped = flip_network_input(net_input, kNetImageSize);
+    mirrored = std::make_unique<SdfNet::ShapeCode>(sdf_->encode(flipped.data(), mirror_camera(camera)));
+  }
   stats.encode = since(t);
 
   double field_seconds = 0;
   const BatchField field = [&](const Points& p, Eigen::VectorXd& values) {
     const auto tf = Clock::now();
     sdf_->field(code, p, values);
+    if (mirrored) {
+      // The mirrored input describes the mirrored object: its field at (-x, y, z) is the object's at (x, y, z).
+      Points q = p;
+      q.col(0) = -q.col(0);
+      Eigen::VectorXd other;
+      sdf_->field(*mirrored, q, other);
+      values = 0.5 * (values + other);
+    }
     field_seconds += since(tf);
   };
   ExtractSettings es;
@@ -176,7 +221,7 @@ Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& came
   es.coarse_resolution = settings.coarse_resolution;
   es.box_min = Vec3::Constant(-settings.box_half);
   es.box_size = 2 * settings.box_half;
-  es.iso = 0.0;
+  es.iso = surface_level(settings);
   es.safety = extraction_safety(settings);
   es.close_boundary = true;
   es.follow_surface = settings.follow_surface;
@@ -277,6 +322,8 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
   r.evaluations += st.evaluations;
   r.components_removed = st.components_removed;
   r.dense = settings.dense;
+  r.threshold = occupancy_threshold(settings);
+  r.mirror_tta = settings.mirror_tta;
   r.timings.encode = st.encode;
   r.timings.field = st.field;
   r.timings.extract = st.extract;

@@ -47,6 +47,14 @@ struct ReconSettings {
   /// Lipschitz allowance of the network field for the adaptive extraction (1 = trust it as a true SDF); 0 = the
   /// model's default (default_extraction_safety).
   double safety = 0;
+  /// Binary-variant models: the occupancy probability whose level set is the surface (Occupancy Networks' threshold
+  /// tau), in (0, 1). Not read for an SDF model, whose surface is its 0 level (`recon --threshold` refuses one).
+  double threshold = 0.5;
+  /// Mirror test-time augmentation: the SDF network also reads the input flipped left to right through the mirrored
+  /// camera (mirror_camera), which shows it the object mirrored across x = 0; its field at the mirror image of each
+  /// point is averaged with the plain one. An exact symmetry of the task (no assumption that the object is
+  /// symmetric); twice the network work.
+  bool mirror_tta = false;
   double box_half = 1.05;        ///< sampled cube [-box_half, box_half]^3 (object frame: the unit sphere + 5%)
   bool dense = false;            ///< evaluate the full grid instead (the baseline of `sdfkit bench recon`)
   /// Follow the surface from the adaptive extraction's final cells (ExtractSettings::follow_surface): every surface
@@ -108,9 +116,15 @@ struct ReconResult {
   long evaluations = 0;         ///< field evaluations
   int components_removed = 0;
   bool dense = false;           ///< the full grid was evaluated (ReconSettings::dense)
+  double threshold = 0;         ///< occupancy threshold of a binary-variant model (0: an SDF model, level 0)
+  bool mirror_tta = false;      ///< the field averaged with the mirrored input's (ReconSettings::mirror_tta)
   ReconTimings timings;
   Image preview;                ///< RGB, 4 panels side by side (empty when settings.preview is false)
 };
+
+/// A network input (C x size x size, channels first) flipped left to right: what the camera mirror_camera() of the
+/// input's camera sees of the object mirrored across x = 0.
+Eigen::VectorXf flip_network_input(const Eigen::VectorXf& input, int size);
 
 /// The non-white pixels (is_ink, nets/dataset.h: any channel off white by more than 0.05) of a network input (3 x 137 x 137).
 Image input_foreground(const Eigen::VectorXf& input);
@@ -128,6 +142,12 @@ class Reconstructor {
   [[nodiscard]] bool has_pose() const { return pose_ != nullptr; }
   /// The safety factor the adaptive extraction uses: settings.safety, or the model's default when it is 0.
   [[nodiscard]] double extraction_safety(const ReconSettings& settings) const;
+  /// The occupancy threshold a binary-variant model is extracted at (settings.threshold; InvalidInput outside
+  /// (0, 1)); 0 for an SDF model.
+  [[nodiscard]] double occupancy_threshold(const ReconSettings& settings) const;
+  /// The level of the network field (SdfNet::field) that is extracted: 0 for an SDF model; -logit(threshold) /
+  /// sdf_scale for a binary one (its field is -logit / sdf_scale).
+  [[nodiscard]] double surface_level(const ReconSettings& settings) const;
 
   /// Reconstruct one image: frame it (settings.framing), then run_input. `camera` (null = estimate it) is a camera of
   /// the input image (a camera of another size is scaled to the image's size first). `what` names the input in

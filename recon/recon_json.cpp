@@ -44,6 +44,8 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
   j["components_removed"] = r.components_removed;
   j["resolution"] = settings.resolution;
   j["extraction"] = r.dense ? "dense" : "adaptive";
+  if (r.threshold > 0) j["threshold"] = r.threshold;
+  j["mirror_tta"] = r.mirror_tta;
   const ReconTimings& t = r.timings;
   j["seconds"] = {{"prepare", t.prepare}, {"pose", t.pose},       {"encode", t.encode},
                   {"field", t.field},     {"extract", t.extract}, {"cleanup", t.cleanup},

@@ -300,6 +300,10 @@ TEST_CASE("recon outputs: the format follows -o, a folder only for a folder inpu
       {"recon " + img + " -o " + (dir / "k3.obj").string() + " --pose-distances 3,2 --res 33", "0 < MIN <= MAX"},
       {"recon " + img + " -o " + (dir / "l.obj").string() + " --refine-res 17" + cam, "applies with --refine-camera"},
       {"recon " + img + " -o " + (dir / "m.obj").string() + " --dense --safety 3" + cam, "--safety applies"},
+      {"recon " + img + " -o " + (dir / "t.obj").string() + " --threshold 1.2" + cam, "outside (0, 1)"},
+      {"recon " + img + " -o " + (dir / "t2.obj").string() + " --threshold 0.4 --model " + kSource +
+           "/data/models/sdf_rgb.ckpt" + cam,
+       "--threshold applies to a binary-variant model"},
   };
   for (const auto& item : bad) {
     const auto& cmd = item.first;
@@ -309,6 +313,13 @@ TEST_CASE("recon outputs: the format follows -o, a folder only for a folder inpu
     CHECK(r.code == 1);
     CHECK(r.err.find(message) != std::string::npos);
   }
+  CHECK(!fs::exists(dir / "t.obj"));
+  // The JSON says what ran: the shipped (binary) model's threshold and the mirror augmentation.
+  const Run tta = run("recon " + img + " -o " + (dir / "tta.obj").string() + " --threshold 0.4 --mirror-tta --json" + cam);
+  REQUIRE_MESSAGE(tta.code == 0, tta.err);
+  const Json jt = Json::parse(tta.out);
+  CHECK(jt.at("threshold").get<double>() == 0.4);
+  CHECK(jt.at("mirror_tta").get<bool>());
   CHECK(!fs::exists(dir / "noext"));
   CHECK(!fs::exists(dir / "many.obj"));
   // A folder input writes <stem>.<--format> into the -o folder.

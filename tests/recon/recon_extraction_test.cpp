@@ -2,11 +2,14 @@
 // extraction's distance bound misjudges cells; following the surface from the cells kept gives the dense mesh.
 #include "recon/recon.h"
 
+#include "core/error.h"
+#include "core/primitives.h"
 #include "nets/dataset.h"
 
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -52,24 +55,16 @@ Eigen::VectorXf disc_input() {
   return in;
 }
 
-}  // namespace
-
-TEST_CASE("Reconstructor: a binary-variant model extracted adaptively with surface following gives the dense mesh") {
-  const Camera camera = look_at(30.0, 20.0, 2.7, kNetImageSize, kNetImageSize);
-  const Eigen::VectorXf input = disc_input();
+/// An untrained binary network whose field over the recon box has an inside and an outside: the last layer (stream
+/// 2's output layer) scaled 100 times so that the field varies by more than the cells' size, then its bias (the last
+/// parameter) shifted so that the field's median over the box is 0. The shift must move every value alike
+/// (checked), else it was no bias.
+std::unique_ptr<SdfNet> binary_with_surface(const Eigen::VectorXf& input, const Camera& camera, double box_half) {
   auto binary = std::make_unique<SdfNet>(small_config(SdfVariant::kBinary));
   binary->init(7);
-
-  // The untrained field is nearly flat: scale the last layer (stream 2's output layer) 100 times so that it varies
-  // by more than the cells' size, then shift its bias (the last parameter) so that the field's median over the box is
-  // 0: the field then has an inside and an outside. The shift must move every value alike (checked), else it was no
-  // bias.
   auto& store = binary->params();
   for (size_t i = store.offset(store.layers().size() - 1); i < store.size(); ++i) store.values[i] *= 100.f;
-  ReconSettings s;
-  s.resolution = 33;
-  s.preview = false;
-  const Points grid = box_grid(9, s.box_half);
+  const Points grid = box_grid(9, box_half);
   const SdfNet::ShapeCode code = binary->encode(input.data(), camera);
   Eigen::VectorXd before, after;
   binary->field(code, grid, before);
@@ -79,6 +74,26 @@ TEST_CASE("Reconstructor: a binary-variant model extracted adaptively with surfa
   REQUIRE(((after - before).array() + m).abs().maxCoeff() < 1e-4);
   REQUIRE((after.array() < 0).count() > 0);
   REQUIRE((after.array() > 0).count() > 0);
+  return binary;
+}
+
+/// The view and settings every case here reconstructs with: 33^3, no preview.
+Camera test_camera() { return look_at(30.0, 20.0, 2.7, kNetImageSize, kNetImageSize); }
+ReconSettings small_settings(bool dense) {
+  ReconSettings s;
+  s.resolution = 33;
+  s.preview = false;
+  s.dense = dense;
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("Reconstructor: a binary-variant model extracted adaptively with surface following gives the dense mesh") {
+  const Camera camera = test_camera();
+  const Eigen::VectorXf input = disc_input();
+  ReconSettings s = small_settings(false);
+  auto binary = binary_with_surface(input, camera, s.box_half);
 
   const Reconstructor rb(std::move(binary), nullptr);
   const ReconResult b = rb.run_input(input, &camera, s, "binary");
@@ -104,4 +119,79 @@ TEST_CASE("Reconstructor: a binary-variant model extracted adaptively with surfa
   p.follow_surface = true;
   const ReconResult bf = rb.run_input(input, &camera, p, "binary followed");
   CHECK(bf.mesh.F == b.mesh.F);
+}
+
+TEST_CASE("Reconstructor: a binary model's occupancy threshold moves its surface; an SDF model's is its 0 level") {
+  const Camera camera = test_camera();
+  const Eigen::VectorXf input = disc_input();
+  ReconSettings s = small_settings(true);
+  const Reconstructor rb(binary_with_surface(input, camera, s.box_half), nullptr);
+  CHECK(rb.occupancy_threshold(s) == 0.5);
+  CHECK(rb.surface_level(s) == 0.0);
+  s.threshold = 0.2;
+  // field = -logit / sdf_scale, so p > 0.2 <=> field < log(4) / sdf_scale.
+  CHECK(rb.surface_level(s) == doctest::Approx(std::log(4.0) / rb.sdf().config().sdf_scale).epsilon(1e-12));
+  double last_volume = 1e9;
+  for (const double tau : {0.2, 0.5, 0.8}) {
+    s.threshold = tau;
+    const ReconResult r = rb.run_input(input, &camera, s, "binary");
+    CHECK(r.threshold == tau);
+    const double v = signed_volume(r.mesh);
+    INFO("threshold " << tau << ": volume " << v);
+    CHECK(v > 0);
+    CHECK(v < last_volume);  // a higher threshold keeps fewer points inside
+    last_volume = v;
+  }
+  for (const double bad : {-0.1, 1.0, 1.5, std::nan("")}) {
+    s.threshold = bad;
+    CHECK_THROWS_AS((void)rb.surface_level(s), InvalidInput);
+  }
+  auto sdf = std::make_unique<SdfNet>(small_config(SdfVariant::kTwoStream));
+  sdf->init(3);
+  const Reconstructor rs(std::move(sdf), nullptr);
+  s.threshold = 0.3;  // not read: an SDF model's surface is its 0 level
+  CHECK(rs.occupancy_threshold(s) == 0.0);
+  CHECK(rs.surface_level(s) == 0.0);
+}
+
+TEST_CASE("Reconstructor: mirror test-time augmentation is exactly equivariant to mirroring the input") {
+  const Camera camera = test_camera();
+  // An input without left-right symmetry: the disc with a dark square on its left.
+  Eigen::VectorXf input = disc_input();
+  for (int c = 0; c < 3; ++c)
+    for (int y = 50; y < 70; ++y)
+      for (int x = 38; x < 55; ++x) input[(static_cast<Eigen::Index>(c) * kNetImageSize + y) * kNetImageSize + x] = 0.1f;
+  ReconSettings s = small_settings(true);
+  s.mirror_tta = true;
+  const Reconstructor rb(binary_with_surface(input, camera, s.box_half), nullptr);
+
+  const Eigen::VectorXf flipped = flip_network_input(input, kNetImageSize);
+  CHECK(flip_network_input(flipped, kNetImageSize) == input);
+  CHECK(flipped[(2L * kNetImageSize + 60) * kNetImageSize + 40] == input[(2L * kNetImageSize + 60) * kNetImageSize + 96]);
+  CHECK_THROWS_AS((void)flip_network_input(input.head(100), kNetImageSize), InvalidInput);
+
+  const ReconResult a = rb.run_input(input, &camera, s, "image");
+  const Camera mirrored = mirror_camera(camera);
+  const ReconResult b = rb.run_input(flipped, &mirrored, s, "flipped image");
+  CHECK(a.mirror_tta);
+  REQUIRE(a.mesh.num_vertices() > 100);
+  REQUIRE(a.mesh.num_vertices() == b.mesh.num_vertices());
+  // The mirrored input's mesh is the mesh mirrored across x = 0 (the same vertices with x negated, in another order).
+  auto sorted = [](Points V, bool mirror) {
+    if (mirror) V.col(0) = -V.col(0);
+    std::vector<std::array<double, 3>> rows(static_cast<size_t>(V.rows()));
+    for (Eigen::Index i = 0; i < V.rows(); ++i) rows[static_cast<size_t>(i)] = {V(i, 0), V(i, 1), V(i, 2)};
+    std::sort(rows.begin(), rows.end());
+    return rows;
+  };
+  const auto va = sorted(a.mesh.V, false), vb = sorted(b.mesh.V, true);
+  double worst = 0;
+  for (size_t i = 0; i < va.size(); ++i)
+    for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(va[i][k] - vb[i][k]));
+  CHECK(worst < 1e-5);  // the network's values may differ in the last bits with the batch a point is evaluated in
+  // Without the augmentation the two inputs give different shapes: the augmentation did the work.
+  s.mirror_tta = false;
+  const ReconResult c = rb.run_input(input, &camera, s, "image, no augmentation");
+  CHECK_FALSE(c.mirror_tta);
+  CHECK(std::abs(signed_volume(c.mesh) - signed_volume(a.mesh)) > 1e-4);
 }
