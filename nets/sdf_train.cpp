@@ -48,6 +48,14 @@ double variant_loss(const SdfNetConfig& c, const Tensor& pred, const Tensor& sdf
   return sdf_weighted_l1_loss<float>(pred, sdf, grad, ls);
 }
 
+/// --adversarial: the factor from the network's output to the value the silhouette render reads (negative inside,
+/// in SDF-prediction units): 1 for an SDF network; -1 / kBinaryFromSdfScale for a binary one, whose logit is positive
+/// inside and about -10 x an SDF network's prediction near the surface (adopt_as_binary), so the temperature keeps
+/// its meaning.
+float render_value_factor(const SdfNetConfig& c) {
+  return c.variant == SdfVariant::kBinary ? -1.0f / kBinaryFromSdfScale : 1.0f;
+}
+
 bool predicted_inside(const SdfNetConfig& c, float pred) {
   return c.variant == SdfVariant::kBinary ? pred > 0.f : pred < 0.f;
 }
@@ -398,6 +406,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     if (st.camera_jitter_deg > 0) jitter_cameras(b.cameras, st.camera_jitter_deg, st.seed, step, i0);
     const int64_t N = b.points_per_item;
     const int R = adv.render.size;
+    const float value_factor = render_value_factor(st.net);
     const int64_t RR = adv.enabled() ? static_cast<int64_t>(R) * R : 0;
     tbb::parallel_for(0, local, [&](int k) {
       flush_denormals_on_this_thread();
@@ -411,6 +420,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
         const auto code = net.encode(it.image.ptr(), cam);
         it.rays = find_silhouette_points(cam, adv.render, [&](const PointsF& p, Eigen::VectorXf& v) {
           net.predict(code, p, v);
+          v *= value_factor;
         });
       }
       // Only rays whose coverage can still move take part in the training forward: where |prediction| exceeds
@@ -440,7 +450,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
       std::copy(it.pred.ptr(), it.pred.ptr() + N, it.pred_samples.ptr());
       it.loss = variant_loss(st.net, it.pred_samples, it.sdf, &it.dpred_samples);
       Eigen::VectorXf value = it.rays.value;
-      for (int64_t a = 0; a < A; ++a) value[it.active[static_cast<size_t>(a)]] = it.pred[N + a];
+      for (int64_t a = 0; a < A; ++a) value[it.active[static_cast<size_t>(a)]] = value_factor * it.pred[N + a];
       it.alpha = soft_coverage(it.rays, value, adv.temperature, &it.dalpha);
     });
     double adv_g = 0, adv_d = 0;
@@ -485,7 +495,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
         const float* dr = dfake.item(k) + 3 * RR;
         for (int64_t a = 0; a < A; ++a) {
           const int i = it.active[static_cast<size_t>(a)];
-          it.dpred[N + a] = static_cast<float>(adv.weight) * dr[i] * it.dalpha[i];
+          it.dpred[N + a] = static_cast<float>(adv.weight) * dr[i] * it.dalpha[i] * value_factor;
         }
         it.net->backward(it.ws, it.dpred);
       });

@@ -18,7 +18,8 @@ namespace sdfkit {
 
 /// Adversarial fine-tuning (the occlusion paper's conditional patch critic, `train sdf --adversarial W`). Each step,
 /// every item's predicted field is rendered through the item's camera as a soft silhouette (camera/field_silhouette.h:
-/// the network evaluated at each pixel ray's point of smallest predicted value, alpha = sigmoid(-pred / temperature));
+/// the network evaluated at each pixel ray's point of smallest predicted value, alpha = sigmoid(-pred / temperature);
+/// a binary network's value is -logit / 10, which is the SDF network's prediction it starts from);
 /// the critic (nets/patch_critic.h) sees the input image (as the network saw it, occlusion included, resized to the
 /// render's size) stacked with either that render (fake) or the object's silhouette in the unoccluded image (real:
 /// its non-white pixels). The SDF network's loss becomes  mean item loss + weight * BCE(critic(fake), real), whose

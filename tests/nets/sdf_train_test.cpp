@@ -16,6 +16,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -441,6 +442,48 @@ TEST_CASE("adversarial fine-tuning: the critic trains, its state resumes bit for
   st.adversarial.weight = 0.5;
   st.adversarial.render.size = 28;
   CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  fs::remove_all(root);
+}
+
+TEST_CASE("adversarial fine-tuning of a binary network renders its occupancy as the SDF model it starts from") {
+  // A binary network adopted from a two-stream model has logit = -10 x the model's prediction, so the silhouette the
+  // critic judges (value -logit / 10, negative inside) is the two-stream model's: the first step's generator loss
+  // agrees. A render reading the logit as an SDF would show the object's complement.
+  const fs::path root = make_torus_dataset("sdf_train_adversarial_binary");
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
+  st.steps = 3;
+  st.out = (root / "start.ckpt").string();
+  train_sdf(st);
+  st.init = st.out;
+  st.steps = 1;
+  st.val_every = 1;
+  st.adversarial.critic.size = st.adversarial.render.size = 14;
+  st.adversarial.critic.widths = {4, 4, 4, 4};
+  st.adversarial.render.samples = 6;
+  st.adversarial.weight = 0.5;
+  auto first_generator_loss = [&](SdfVariant v, const std::string& name) {
+    st.net.variant = v;
+    st.out = (root / name).string();
+    train_sdf(st);
+    std::ifstream csv(loss_curve_path(st.out, "csv"));
+    std::string header, row;
+    std::getline(csv, header);
+    std::getline(csv, row);
+    auto cells = [](const std::string& line) {
+      std::vector<std::string> out;
+      std::stringstream in(line);
+      for (std::string cell; std::getline(in, cell, ',');) out.push_back(cell);
+      return out;
+    };
+    const std::vector<std::string> names = cells(header), values = cells(row);
+    const auto at = std::find(names.begin(), names.end(), "adv_generator");
+    REQUIRE(at != names.end());
+    return std::stod(values.at(static_cast<size_t>(at - names.begin())));
+  };
+  const double sdf = first_generator_loss(SdfVariant::kTwoStream, "two_stream.ckpt");
+  const double binary = first_generator_loss(SdfVariant::kBinary, "binary.ckpt");
+  CHECK(std::isfinite(sdf));
+  CHECK(binary == doctest::Approx(sdf).epsilon(1e-4));
   fs::remove_all(root);
 }
 
