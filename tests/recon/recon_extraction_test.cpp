@@ -121,7 +121,7 @@ TEST_CASE("Reconstructor: a binary-variant model extracted adaptively with surfa
   CHECK(bf.mesh.F == b.mesh.F);
 }
 
-TEST_CASE("Reconstructor: a binary model's occupancy threshold moves its surface; an SDF model's is its 0 level") {
+TEST_CASE("Reconstructor: a binary model's occupancy threshold moves its surface, an SDF model's is its 0 level") {
   const Camera camera = test_camera();
   const Eigen::VectorXf input = disc_input();
   ReconSettings s = small_settings(true);
