@@ -57,15 +57,19 @@ void check_same_camera(const Camera& a, const Camera& b) {
 }  // namespace
 
 TEST_CASE("recon_result_json: every key of the recon record, cameras that read back with camera_from_json") {
-  const ReconResult r = made_result();
+  ReconResult r = made_result();
+  r.threshold = 0.4;  // a binary model's
+  r.mirror_tta = true;
   ReconSettings s;
   s.resolution = 65;
   const Json j = recon_result_json(r, s, {"in.png", "out/in.obj", "out/in.preview.png", "out/in.mask.png"}, 400, 300);
   for (const char* key : {"input", "mesh", "preview", "mask", "framing", "warnings", "camera", "network_camera",
                           "camera_source", "flip_turn_deg", "camera_refinement", "evaluations", "vertices", "faces",
-                          "components_removed", "resolution", "extraction", "seconds"})
+                          "components_removed", "resolution", "extraction", "threshold", "mirror_tta", "seconds"})
     CHECK_MESSAGE(j.contains(key), key);
-  CHECK(j.size() == 18);
+  CHECK(j.size() == 20);
+  CHECK(j["threshold"] == 0.4);
+  CHECK(j["mirror_tta"] == true);
   CHECK(j["input"] == "in.png");
   CHECK(j["mesh"] == "out/in.obj");
   CHECK(j["preview"] == "out/in.preview.png");
@@ -112,11 +116,13 @@ TEST_CASE("recon_result_json: a given camera, no refinement, no preview and the 
   r.refinements.clear();
   ReconSettings s;
   s.preview = false;
-  r.dense = true;  // the result says which extraction ran (a binary model forces the dense one)
+  r.dense = true;  // the result says which extraction ran
+  r.threshold = 0;  // an SDF model: no occupancy threshold
   const Json j = recon_result_json(r, s, {"in.png", "in.obj", "unused.preview.png", "unused.mask.png"}, 400, 300);
   CHECK(j["camera_source"] == "given");
   CHECK(j["extraction"] == "dense");
-  for (const char* key : {"preview", "mask", "flip_turn_deg", "camera_refinement"})
+  CHECK(j["mirror_tta"] == false);
+  for (const char* key : {"preview", "mask", "flip_turn_deg", "camera_refinement", "threshold"})
     CHECK_MESSAGE(!j.contains(key), key);
-  CHECK(j.size() == 14);
+  CHECK(j.size() == 15);
 }
