@@ -405,19 +405,30 @@ TEST_CASE("occluded training with a mask channel: recorded, starts from an RGB m
   fs::remove_all(root);
 }
 
-TEST_CASE("adversarial fine-tuning: the critic trains, its state resumes bit for bit, its gradient moves the net") {
-  const fs::path root = make_torus_dataset("sdf_train_adversarial");
+namespace {
+
+/// A two-stream model trained for 3 steps in ROOT/start.ckpt, and the settings that fine-tune it with a small critic
+/// (14 px renders, weight 0.5).
+SdfTrainSettings adversarial_run(const fs::path& root) {
   SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
   st.steps = 3;
   st.out = (root / "start.ckpt").string();
   train_sdf(st);
   st.init = st.out;
-  st.occlusion.kind = OcclusionAugmentSettings::Kind::kHalf;
-  st.occlusion.prob = 1.0;
   st.adversarial.critic.size = st.adversarial.render.size = 14;
   st.adversarial.critic.widths = {4, 4, 4, 4};
   st.adversarial.render.samples = 6;
   st.adversarial.weight = 0.5;
+  return st;
+}
+
+}  // namespace
+
+TEST_CASE("adversarial fine-tuning: the critic trains, its state resumes bit for bit, its gradient moves the net") {
+  const fs::path root = make_torus_dataset("sdf_train_adversarial");
+  SdfTrainSettings st = adversarial_run(root);
+  st.occlusion.kind = OcclusionAugmentSettings::Kind::kHalf;
+  st.occlusion.prob = 1.0;
   const SdfTrainResult r = straight_and_split(st, root, "a");
   CHECK(r.steps == 6);
   const Checkpoint a = load_checkpoint((root / "a_straight.ckpt").string());
@@ -450,17 +461,9 @@ TEST_CASE("adversarial fine-tuning of a binary network renders its occupancy as 
   // critic judges (value -logit / 10, negative inside) is the two-stream model's: the first step's generator loss
   // agrees. A render reading the logit as an SDF would show the object's complement.
   const fs::path root = make_torus_dataset("sdf_train_adversarial_binary");
-  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
-  st.steps = 3;
-  st.out = (root / "start.ckpt").string();
-  train_sdf(st);
-  st.init = st.out;
+  SdfTrainSettings st = adversarial_run(root);
   st.steps = 1;
   st.val_every = 1;
-  st.adversarial.critic.size = st.adversarial.render.size = 14;
-  st.adversarial.critic.widths = {4, 4, 4, 4};
-  st.adversarial.render.samples = 6;
-  st.adversarial.weight = 0.5;
   auto first_generator_loss = [&](SdfVariant v, const std::string& name) {
     st.net.variant = v;
     st.out = (root / name).string();
