@@ -228,6 +228,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   require(st.reframe.camera == ZoomAugmentSettings::CameraFollow::kFocal,
           "train sdf: the reframing must move the intrinsics (the network projects with the camera)");
   const SdfAdversarialSettings& adv = st.adversarial;
+  const float value_factor = render_value_factor(st.net);  // the render's reading of the network output
   if (adv.enabled()) {
     require(Comm::world().size() == 1, "train sdf: --adversarial runs in one process (no MPI ranks)");
     require(adv.render.size == adv.critic.size, "train sdf: the render and the critic need the same size");
@@ -406,7 +407,6 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     if (st.camera_jitter_deg > 0) jitter_cameras(b.cameras, st.camera_jitter_deg, st.seed, step, i0);
     const int64_t N = b.points_per_item;
     const int R = adv.render.size;
-    const float value_factor = render_value_factor(st.net);
     const int64_t RR = adv.enabled() ? static_cast<int64_t>(R) * R : 0;
     tbb::parallel_for(0, local, [&](int k) {
       flush_denormals_on_this_thread();
