@@ -35,8 +35,8 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
   app.add_option("--band", o->s.band, "grid band half-width as in `sdfkit prep --band` (0 = 3 voxels)")
       ->check(non_negative())
       ->capture_default_str();
-  app.add_option("--sign", o->sign, "sign method as in `sdfkit prep --sign`: auto or winding")
-      ->check(CLI::IsMember({"auto", "winding"}))
+  app.add_option("--sign", o->sign, "sign method as in `sdfkit prep --sign`: auto, winding or flood")
+      ->check(CLI::IsMember({"auto", "winding", "flood"}))
       ->capture_default_str();
   app.add_flag("--tree-memory", o->s.tree_memory,
                "also report the memory of the same active voxels in non-standard OpenVDB trees with 4^3 leaves "
@@ -46,6 +46,7 @@ std::function<int()> setup_bench_prep(CLI::App& app) {
   return [o] {
     std::FILE* text = o->json ? stderr : stdout;
     o->s.sign = o->sign == "winding" ? SignMethod::kWindingNumber : SignMethod::kAuto;
+    o->s.seal = o->sign == "flood";
     o->s.dense_baseline = !o->no_dense;
     o->s.example_meshes = (std::filesystem::path(SDFKIT_SOURCE_DIR) / "data" / "examples" / "meshes").string();
     // The header is printed once the meshes are read (an unreadable mesh fails before any output).

@@ -77,6 +77,7 @@ PrepBenchResult run_prep_bench(const PrepBenchSettings& settings,
     PrepareSettings s;
     s.grid.band = settings.band;
     s.grid.sign = settings.sign;
+    s.grid.seal = settings.seal;
     std::vector<double>& t1 = row.seconds_1_thread;
     std::vector<double>& t2 = row.seconds_2_threads;
     std::vector<double>& c1 = row.cpu_seconds_1_thread;
@@ -281,6 +282,7 @@ Json prep_bench_row_json(const PrepBenchRow& row) {
           {"peak_rss_mb_after_dense", row.peak_rss_mb_after_dense},
           {"gt_source", st.gt_source},
           {"sign", sign_method_name(st.sign)},
+          {"sealed_voxels", st.grid.sealed_voxels},  // 0 unless --sign flood
           {"stage_seconds_last_run",
            {{"mesh", st.seconds_mesh},
             {"grid_setup", st.grid.seconds_setup},

@@ -24,6 +24,7 @@ struct PrepBenchSettings {
   bool dense_baseline = true;   ///< compute the dense baseline
   double band = 0.0;            ///< grid band half-width as in `sdfkit prep --band` (0 = 3 voxels)
   SignMethod sign = SignMethod::kAuto;  ///< kAuto or kWindingNumber, as `sdfkit prep --sign`
+  bool seal = false;                    ///< sealed cavities inside (`sdfkit prep --sign flood`)
   std::string only;             ///< time only the shapes whose name contains this text (empty = all)
   /// Also measure the memory of the same active voxels in non-standard OpenVDB trees with 4^3 leaves.
   bool tree_memory = false;

@@ -9,7 +9,9 @@
 
 #include <openvdb/tools/VolumeToMesh.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 
 namespace sdfkit {
@@ -65,6 +67,65 @@ bool shape_is_complete(const std::string& shape_dir) {
          fs::is_regular_file(files.gt);
 }
 
+std::vector<std::string> prepared_differences(const std::string& shape_dir, const PrepareSettings& s) {
+  Json j;
+  try {
+    j = read_json(ShapeFiles(shape_dir).norm);
+  } catch (const std::exception&) {
+    return {"norm.json"};
+  }
+  std::vector<std::string> keys;
+  const auto at = [&j](const char* group, const char* key) -> const Json* {
+    if (!j.is_object() || !j.contains(group) || !j[group].is_object() || !j[group].contains(key)) return nullptr;
+    return &j[group][key];
+  };
+  const auto close = [](double a, double b) { return std::abs(a - b) <= 1e-12 * std::max({1.0, std::abs(a), std::abs(b)}); };
+  const auto number = [&](const char* group, const char* key, double want) {
+    const Json* v = at(group, key);
+    if (!v || !v->is_number() || !close(v->get<double>(), want)) keys.push_back(std::string(group) + "." + key);
+  };
+  const std::string up = j.is_object() && j.contains("up") && j["up"].is_string() ? j["up"].get<std::string>() : "y";
+  if (up != up_axis_name(s.up)) keys.emplace_back("up");
+  number("grid", "voxel_size", s.grid.voxel_size);
+  number("grid", "band", s.grid.band > 0 ? s.grid.band : 3 * s.grid.voxel_size);
+  {
+    const Json* v = at("grid", "sign");
+    const std::string got = v && v->is_string() ? v->get<std::string>() : "";
+    bool ok = false;
+    switch (s.grid.sign) {
+      case SignMethod::kAuto: ok = got == "pseudo_normal" || got == "winding_number"; break;
+      case SignMethod::kPseudoNormal: ok = got == "pseudo_normal" || got == "winding_number"; break;
+      case SignMethod::kWindingNumber: ok = got == "winding_number"; break;
+      case SignMethod::kNone: ok = got == "none"; break;
+    }
+    if (!ok) keys.emplace_back("grid.sign");
+    const Json* sealed = at("grid", "sealed");  // absent before sealing existed: not sealed
+    if ((sealed && sealed->is_boolean() && sealed->get<bool>()) != s.grid.seal) keys.emplace_back("grid.sealed");
+  }
+  number("samples", "count", static_cast<double>(s.samples.count));
+  number("samples", "offset", s.samples.offset);
+  {
+    const Json* v = at("samples", "edges");
+    bool ok = v && v->is_array() && v->size() == s.samples.edges.size();
+    for (size_t i = 0; ok && i < s.samples.edges.size(); ++i)
+      ok = (*v)[i].is_number() && close((*v)[i].get<double>(), s.samples.edges[i]);
+    if (!ok) keys.emplace_back("samples.edges");
+  }
+  number("samples", "uniform",
+         static_cast<double>(std::lround(static_cast<double>(s.samples.count) * s.samples.uniform_share)));
+  {
+    const Json* v = at("samples", "seed");
+    if (!v || !v->is_number_unsigned() || v->get<uint64_t>() != s.samples.seed) keys.emplace_back("samples.seed");
+  }
+  {
+    const Json* v = at("gt", "setting");
+    if (!v || !v->is_string() || v->get<std::string>() != gt_name(s.gt)) keys.emplace_back("gt.setting");
+    const Json* source = at("gt", "source");
+    if (source && source->is_string() && source->get<std::string>() == "iso") number("gt", "iso", s.gt_iso);
+  }
+  return keys;
+}
+
 namespace {
 PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const std::string& hash,
                            const MeshReport* read_report, const std::string& shape_dir, const PrepareSettings& settings,
@@ -74,8 +135,12 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
   st.shape_dir = shape_dir;
   const ShapeFiles files(shape_dir);
   if (!settings.overwrite && shape_is_complete(shape_dir)) {
-    st.skipped = true;
-    return st;
+    st.redone = prepared_differences(shape_dir, settings);
+    if (st.redone.empty()) {
+      st.skipped = true;
+      return st;
+    }
+    st.frame_changed = std::find(st.redone.begin(), st.redone.end(), "up") != st.redone.end();
   }
   auto report = [&](double f) {
     if (progress && !progress(f)) throw Error(source + ": cancelled");
@@ -144,7 +209,8 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
                {"background", sdf.background()},
                {"active_voxels", st.active_voxels},
                {"band", settings.grid.band > 0 ? settings.grid.band : 3 * settings.grid.voxel_size},
-               {"sign", sign_method_name(sign)}};
+               {"sign", sign_method_name(sign)},
+               {"sealed", settings.grid.seal}};
   j["samples"] = {{"count", samples.rows()},
                   {"offset", settings.samples.offset},
                   {"edges", settings.samples.edges},
@@ -164,7 +230,7 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
 
 PrepareStatus prepare_shape(const std::string& mesh_path, const std::string& shape_dir,
                             const PrepareSettings& settings, const ProgressFn& progress) {
-  if (!settings.overwrite && shape_is_complete(shape_dir)) {
+  if (!settings.overwrite && shape_is_complete(shape_dir) && prepared_differences(shape_dir, settings).empty()) {
     PrepareStatus st;
     st.skipped = true;
     st.shape_dir = shape_dir;

@@ -9,6 +9,7 @@
 #include "sdf/sparse_sdf.h"
 
 #include <string>
+#include <vector>
 
 namespace sdfkit {
 
@@ -29,7 +30,10 @@ struct PrepareSettings {
 };
 
 struct PrepareStatus {
-  bool skipped = false;     ///< already complete (norm.json present) and not overwritten
+  bool skipped = false;     ///< already complete (norm.json present) with the same settings, and not overwritten
+  /// A complete shape prepared again because its norm.json records other settings: their keys (prepared_differences).
+  std::vector<std::string> redone;
+  bool frame_changed = false;  ///< redone with another up axis: the object frame moved (views made before are stale)
   std::string shape_dir;
   MeshReport mesh;          ///< validation counts
   long flipped_faces = 0;
@@ -55,8 +59,17 @@ struct ShapeFiles {
 /// True when `shape_dir` holds a complete prepared shape (norm.json is written last).
 bool shape_is_complete(const std::string& shape_dir);
 
-/// Prepare one mesh file into `shape_dir` (created). Throws IoError/InvalidInput naming `mesh_path` when the
-/// input is unusable; on error nothing is left that looks complete. `progress` may cancel.
+/// The settings that a complete shape's norm.json records differently from `settings` (up, grid.voxel_size,
+/// grid.band, grid.sign, grid.sealed, samples.count/offset/edges/uniform/seed, gt.setting, gt.iso), as their
+/// norm.json keys; {"norm.json"} when it cannot be read; empty when the shape is what `settings` would make.
+/// grid.sign differs only when the recorded method cannot come from the requested one (winding numbers asked and
+/// pseudo-normals recorded, say).
+std::vector<std::string> prepared_differences(const std::string& shape_dir, const PrepareSettings& settings);
+
+/// Prepare one mesh file into `shape_dir` (created). A shape already complete with the same settings is skipped
+/// (unless settings.overwrite); one complete with other settings is prepared again (PrepareStatus::redone). Throws
+/// IoError/InvalidInput naming `mesh_path` when the input is unusable; on error nothing is left that looks
+/// complete. `progress` may cancel.
 PrepareStatus prepare_shape(const std::string& mesh_path, const std::string& shape_dir,
                             const PrepareSettings& settings = {}, const ProgressFn& progress = {});
 

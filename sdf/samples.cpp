@@ -5,6 +5,7 @@
 #include "sdf/distance.h"
 #include "sdf/mesh_queries.h"
 #include "sdf/pseudonormal.h"
+#include "sdf/sealed.h"
 #include "sdf/sparse_sdf_vdb.h"
 #include "sdf/winding.h"
 
@@ -51,11 +52,13 @@ uint64_t morton_key(const openvdb::Coord& c) {
 
 /// Exact signed distance of a point: exact unsigned distance (BVH); the sign from the pseudo-normal at the
 /// closest feature (closed meshes), or else from the nearest voxel of the grid when the point is too far from the
-/// surface for a crossing in between, else from the winding number.
+/// surface for a crossing in between, else from the winding number. With the grid's sealed cavities, points in
+/// them are inside whatever the exact sign says (and the grid's signs already include them).
 struct ExactSigned {
   const MeshDistance& dist;
   const WindingNumber* wn;      ///< null when `normals` decide
   const PseudoNormals* normals;
+  const SealedCavities* sealed;  ///< null unless the grid was sealed
   const openvdb::FloatGrid& grid;
   double h;
   openvdb::Coord offset;  ///< grid_index_offset
@@ -67,7 +70,7 @@ struct ExactSigned {
     const ClosestPoint cp = dist.closest(p, bound, hint);
     if (cp.face < 0) return std::numeric_limits<double>::quiet_NaN();
     const double u = cp.distance;
-    if (normals) return normals->inside(p, cp) ? -u : u;
+    if (normals) return normals->inside(p, cp) || (sealed && sealed->contains(p, dist)) ? -u : u;
     const openvdb::Coord c(static_cast<int>(std::lround(p.x() / h)) + offset.x(),
                            static_cast<int>(std::lround(p.y() / h)) + offset.y(),
                            static_cast<int>(std::lround(p.z() / h)) + offset.z());
@@ -79,6 +82,7 @@ struct ExactSigned {
       const Vec3 x((c.x() - offset.x()) * h, (c.y() - offset.y()) * h, (c.z() - offset.z()) * h);
       if (boundary_free && !dist.segment_may_cross(p, x)) return v < 0 ? -u : u;
     }
+    if (sealed && sealed->contains(p, dist)) return -u;
     return (*wn)(p) > 0.5 ? -u : u;
   }
 };
@@ -216,7 +220,8 @@ MatrixXfR disn_samples(const MeshQueries& queries, const SparseSdf& sdf, const S
   const SignMethod method = queries.sign();
   const PseudoNormals* normals = queries.pseudo_normals();
   const WindingNumber* wn = normals ? nullptr : &queries.winding();
-  const ExactSigned exact{dist, wn, normals, grid, h, grid_index_offset(grid), queries.boundary_free()};
+  const SealedCavities* sealed = sdf.sealed();
+  const ExactSigned exact{dist, wn, normals, sealed, grid, h, grid_index_offset(grid), queries.boundary_free()};
   const openvdb::Coord off = exact.offset;
 
   SampleReport rep;
@@ -245,9 +250,10 @@ MatrixXfR disn_samples(const MeshQueries& queries, const SparseSdf& sdf, const S
   // (exact in the band, at least the band's width beyond it) +- its distance to p. The sign is that of the
   // nearest voxel when p is farther from that voxel than the surface can be: for pseudo-normal signs when p
   // lies in the surface-free ball around the voxel; for winding-number signs when ExactSigned itself takes the
-  // voxel's sign (u > 0.9 voxel). Dropping only skips queries: every stored sample is still exact.
+  // voxel's sign (u > 0.9 voxel), and with sealed cavities (where the sealed state may change across a gap
+  // without a surface) by the same margin. Dropping only skips queries: every stored sample is still exact.
   const double slack = 1e-3 * h;
-  const double sign_margin = normals ? 0.0 : 0.9 * h;
+  const double sign_margin = normals && !sealed ? 0.0 : 0.9 * h;
   // `bound` receives an upper bound of p's distance (the exact query then prunes the BVH from the start).
   auto may_fall_in = [&](const Vec3& p, const Cell& cell, auto& acc, double lo, double hi, double& bound) {
     const Vec3 ip = p / h + Vec3(off.x(), off.y(), off.z());

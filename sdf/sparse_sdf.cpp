@@ -127,6 +127,11 @@ struct BandGrid {
   }
   /// Voxels a and b (neighbours) with these distances have no surface between them.
   [[nodiscard]] float no_surface_sum() const { return static_cast<float>(h * kNoSurfaceBetween); }
+  /// With sealed cavities, the band's wall voxels (|distance| <= this) join no component: the flood's exterior and a
+  /// cavity meet across them without a surface in between. -1: no sealing.
+  float wall = -1.f;
+  /// Neighbour voxels with unsigned distances a and b share a sign.
+  [[nodiscard]] bool joinable(float a, float b, float safe) const { return a + b > safe && a > wall && b > wall; }
 };
 
 using InsideMeasure = std::function<double(const Vec3&)>;
@@ -248,17 +253,18 @@ std::vector<std::unique_ptr<LeafT>> exact_band_leaves(const Mesh& mesh, const Me
 }
 
 /// Calls unite(i, j) for every pair of face-adjacent voxels of one leaf (leaf-local indices, x-major) between which
-/// no surface can pass: v[i] + v[j] > safe. Both sign stages join a leaf's voxels by this rule, in this order.
+/// no surface can pass (BandGrid::joinable). Both sign stages join a leaf's voxels by this rule, in this order.
 template <class Unite>
-void unite_inside_leaf(const float* v, float safe, Unite&& unite) {
+void unite_inside_leaf(const float* v, const BandGrid& g, Unite&& unite) {
   constexpr int32_t D = LeafT::DIM;
+  const float safe = g.no_surface_sum();
   for (int32_t x = 0; x < D; ++x)
     for (int32_t y = 0; y < D; ++y)
       for (int32_t z = 0; z < D; ++z) {
         const int32_t i = (x * D + y) * D + z;
-        if (z + 1 < D && v[i] + v[i + 1] > safe) unite(i, i + 1);
-        if (y + 1 < D && v[i] + v[i + D] > safe) unite(i, i + D);
-        if (x + 1 < D && v[i] + v[i + D * D] > safe) unite(i, i + D * D);
+        if (z + 1 < D && g.joinable(v[i], v[i + 1], safe)) unite(i, i + 1);
+        if (y + 1 < D && g.joinable(v[i], v[i + D], safe)) unite(i, i + D);
+        if (x + 1 < D && g.joinable(v[i], v[i + D * D], safe)) unite(i, i + D * D);
       }
 }
 
@@ -268,7 +274,6 @@ void unite_inside_leaf(const float* v, float safe, Unite&& unite) {
 void signs_per_leaf(const std::vector<LeafT*>& leaves, const std::vector<int32_t>& which, const BandGrid& g,
                     const InsideMeasure& wn, std::vector<char>& inside_all, std::atomic<long>& evaluations) {
   constexpr auto S = static_cast<int32_t>(LeafT::SIZE);
-  const float safe = g.no_surface_sum();
   tbb::parallel_for(tbb::blocked_range<size_t>(0, which.size(), 4), [&](const auto& range) {
     UnionFind uf(LeafT::SIZE);
     std::vector<int32_t> best(LeafT::SIZE);
@@ -278,7 +283,7 @@ void signs_per_leaf(const std::vector<LeafT*>& leaves, const std::vector<int32_t
       const LeafT& leaf = *leaves[li];
       uf.reset(LeafT::SIZE);
       const float* v = leaf.buffer().data();
-      unite_inside_leaf(v, safe, [&uf](int32_t i, int32_t j) { uf.unite(i, j); });
+      unite_inside_leaf(v, g, [&uf](int32_t i, int32_t j) { uf.unite(i, j); });
       // Preferred probe per component: the member farthest from the surface (most robust).
       for (int32_t i = 0; i < S; ++i) best[i] = -1;
       for (int32_t i = 0; i < S; ++i) {
@@ -296,10 +301,11 @@ void signs_per_leaf(const std::vector<LeafT*>& leaves, const std::vector<int32_t
 /// pairs across leaf faces joined by the same rule), a few probes per component. A component whose probes all
 /// agree clearly takes their verdict; small components take a decided neighbour's sign when no triangle lies
 /// between them (winding numbers) or their own probe; the leaves of undecided components are decided leaf by leaf
-/// (stage 2a). A closed shell's band then costs a handful of probes instead of a few per leaf.
+/// (stage 2a). A closed shell's band then costs a handful of probes instead of a few per leaf. `sealed`: the sealed
+/// cavities `wn` counts inside, or null.
 void signs_by_band_components(const std::vector<LeafT*>& leaves, const BandGrid& band, const InsideMeasure& wn,
-                              const MeshDistance& exact, bool winding, std::vector<char>& inside_all,
-                              std::atomic<long>& evaluations) {
+                              const MeshDistance& exact, bool winding, const SealedCavities* sealed,
+                              std::vector<char>& inside_all, std::atomic<long>& evaluations) {
   constexpr int32_t D = LeafT::DIM;
   constexpr auto S = static_cast<int32_t>(LeafT::SIZE);
   const float safe = band.no_surface_sum();
@@ -314,7 +320,7 @@ void signs_by_band_components(const std::vector<LeafT*>& leaves, const BandGrid&
     for (size_t li = range.begin(); li != range.end(); ++li) {
       const float* v = leaves[li]->buffer().data();
       const auto base = static_cast<int32_t>(li * S);
-      unite_inside_leaf(v, safe, [&unite, base](int32_t i, int32_t j) { unite(base + i, base + j); });
+      unite_inside_leaf(v, band, [&unite, base](int32_t i, int32_t j) { unite(base + i, base + j); });
     }
   });
   std::unordered_map<uint64_t, int32_t> leaf_at;
@@ -340,7 +346,7 @@ void signs_by_band_components(const std::vector<LeafT*>& leaves, const BandGrid&
           // Voxel with coordinate a = D - 1 here, 0 in the neighbour; the other two coordinates (u, t).
           const int32_t j = a == 0 ? u * D + t : a == 1 ? u * D * D + t : (u * D + t) * D;
           const int32_t i = j + (D - 1) * stride;
-          if (v[i] + w[j] > safe) unite(base + i, nbase + j);
+          if (band.joinable(v[i], w[j], safe)) unite(base + i, nbase + j);
         }
     }
   }
@@ -403,7 +409,9 @@ void signs_by_band_components(const std::vector<LeafT*>& leaves, const BandGrid&
   // distance rule): with winding numbers, a member takes the sign of a neighbour voxel of a decided large
   // component when no triangle lies on the segment between them (the grid's neighbour with the largest
   // distance first); else, and always with pseudo-normals (whose probe is one closest-point query), its own
-  // probe.
+  // probe. With sealed cavities (every wall voxel is a small component) a member in a cavity is inside at once;
+  // another takes the exact sign, so it may copy a neighbour that is no cavity voxel (the flood reached it) under
+  // the same rule: across a gap the sealed state changes where no triangle lies.
   auto decided = [&](int32_t g) {
     const int32_t c = comp[static_cast<size_t>(g)];
     return starts[c + 1] - starts[c] > static_cast<int32_t>(kSmallComponent) && !undecided[static_cast<size_t>(c)];
@@ -429,6 +437,10 @@ void signs_by_band_components(const std::vector<LeafT*>& leaves, const BandGrid&
       for (int32_t k = starts[c]; k < starts[c + 1]; ++k) {
         const int32_t g = members[static_cast<size_t>(k)];
         const Vec3 p = position(g);
+        if (sealed && sealed->contains(p, exact)) {
+          inside_all[static_cast<size_t>(g)] = 1;
+          continue;
+        }
         int32_t from = -1;
         if (winding) {
           std::array<std::pair<float, int32_t>, 6> cand;
@@ -436,7 +448,9 @@ void signs_by_band_components(const std::vector<LeafT*>& leaves, const BandGrid&
           for (int a = 0; a < 3; ++a)
             for (int dir : {-1, 1}) {
               const int32_t j = neighbour(g, a, dir);
-              if (j >= 0 && decided(j)) cand[static_cast<size_t>(nc6++)] = {-value(j), j};
+              // A large component's voxel is no wall: contains() reads its flood state.
+              if (j >= 0 && decided(j) && !(sealed && sealed->contains(position(j), exact)))
+                cand[static_cast<size_t>(nc6++)] = {-value(j), j};
             }
           // Insertion sort of at most 6 (std::sort here trips GCC 12's -Warray-bounds on its dead >16 branch).
           for (int q = 1; q < nc6; ++q)
@@ -527,6 +541,26 @@ long fill_inside_tiles(FloatTree& tree, const std::vector<LeafT*>& leaves, const
   return tiles;
 }
 
+/// The sealed cavities of the unsigned band in `tree` (sdf/sealed.h): the box of its active voxels grown by one voxel
+/// (so that the flood starts beyond the band), wall voxels where the band is within SealedCavities::kWallWidth voxels.
+SealedCavities sealed_cavities(const FloatTree& tree, const BandGrid& g) {
+  openvdb::CoordBBox bb;
+  tree.evalActiveVoxelBoundingBox(bb);
+  if (bb.empty()) return {};
+  bb.expand(1);
+  const Coord lo = bb.min(), dim = bb.dim();
+  const auto ny = static_cast<size_t>(dim.y()), nz = static_cast<size_t>(dim.z());
+  std::vector<uint8_t> wall(static_cast<size_t>(dim.x()) * ny * nz, 0);
+  const auto limit = static_cast<float>(SealedCavities::kWallWidth * g.h);
+  for (auto it = tree.cbeginValueOn(); it; ++it) {
+    if (!it.isVoxelValue() || std::abs(*it) > limit) continue;
+    const Coord c = it.getCoord() - lo;
+    wall[(static_cast<size_t>(c.x()) * ny + static_cast<size_t>(c.y())) * nz + static_cast<size_t>(c.z())] = 1;
+  }
+  return SealedCavities(Eigen::Vector3i(lo.x(), lo.y(), lo.z()), Eigen::Vector3i(dim.x(), dim.y(), dim.z()),
+                        kGridIndexOffset, g.h, std::move(wall));
+}
+
 /// Replace the random UUID OpenVDB writes into a file header with one derived from the content.
 void make_uuid_deterministic(std::string& bytes) {
   // Header: int64 magic, uint32 file version, uint32 major, uint32 minor, char has_offsets, 36-char UUID.
@@ -572,11 +606,12 @@ openvdb::Coord grid_index_offset(const FloatGrid& grid) {
                static_cast<int32_t>(std::lround(-t.z() / h)));
 }
 
-SparseSdf sparse_sdf_from_grid(FloatGrid::Ptr grid) {
+SparseSdf sparse_sdf_from_grid(FloatGrid::Ptr grid, std::shared_ptr<const SealedCavities> sealed) {
   require(grid != nullptr, "sparse SDF: null grid");
   require(grid->hasUniformVoxels(), "sparse SDF: the grid's voxels are not uniform");
   auto impl = std::make_shared<SparseSdf::Impl>();
   impl->grid = std::move(grid);
+  impl->sealed = std::move(sealed);
   return SparseSdf(std::shared_ptr<const SparseSdf::Impl>(impl));
 }
 
@@ -647,6 +682,7 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
   grid->setName("sdf");
   FloatTree& tree = grid->tree();
   const MeshDistance& exact = queries.distance();
+  require(!s.seal || method != SignMethod::kNone, "sparse SDF: sealing cavities needs a sign method (not none)");
 
   // 1. The exact unsigned band.
   std::vector<std::unique_ptr<LeafT>> built = exact_band_leaves(mesh, exact, g);
@@ -656,11 +692,19 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
   lap(st.seconds_exact);
   progress(0.5);
 
+  std::shared_ptr<const SealedCavities> sealed;
+  if (s.seal) {
+    sealed = std::make_shared<const SealedCavities>(sealed_cavities(tree, g));
+    st.sealed_voxels = sealed->sealed_voxels();
+    g.wall = static_cast<float>(SealedCavities::kWallWidth * g.h);
+  }
   if (method != SignMethod::kNone) {
-    // Inside measure: the winding number, or 1/0 from the pseudo-normal at the closest feature (closed meshes).
+    // Inside measure: the winding number, or 1/0 from the pseudo-normal at the closest feature (closed meshes); with
+    // `seal`, 1 in the sealed cavities.
     const PseudoNormals* normals = queries.pseudo_normals();
     const WindingNumber* winding = normals ? nullptr : &queries.winding();
     const InsideMeasure wn = [&](const Vec3& p) -> double {
+      if (sealed && sealed->contains(p, exact)) return 1.0;
       if (winding) return (*winding)(p);
       const ClosestPoint cp = exact.closest(p);
       return cp.face >= 0 && normals->inside(p, cp) ? 1.0 : 0.0;
@@ -678,7 +722,7 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
       std::iota(all.begin(), all.end(), 0);
       signs_per_leaf(leaves, all, g, wn, inside_all, evaluations);
     } else {
-      signs_by_band_components(leaves, g, wn, exact, winding != nullptr, inside_all, evaluations);
+      signs_by_band_components(leaves, g, wn, exact, winding != nullptr, sealed.get(), inside_all, evaluations);
     }
     // 3. Signs applied.
     tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 16), [&](const auto& range) {
@@ -699,7 +743,7 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
   lap(st.seconds_sign);
   progress(1.0);
   if (stats) *stats = st;
-  return sparse_sdf_from_grid(grid);
+  return sparse_sdf_from_grid(grid, std::move(sealed));
 }
 
 double SparseSdf::value(const Vec3& p) const {
@@ -729,6 +773,8 @@ double SparseSdf::voxel_size() const { return impl_->grid->voxelSize()[0]; }
 double SparseSdf::background() const { return impl_->grid->background(); }
 long SparseSdf::active_voxel_count() const { return static_cast<long>(impl_->grid->activeVoxelCount()); }
 size_t SparseSdf::memory_bytes() const { return static_cast<size_t>(impl_->grid->memUsage()); }
+
+const SealedCavities* SparseSdf::sealed() const { return impl_->sealed.get(); }
 
 Box3 SparseSdf::active_index_bounds() const {
   Box3 b;

@@ -12,6 +12,7 @@
 namespace sdfkit {
 
 class MeshQueries;
+class SealedCavities;
 
 /// How the sign of the distance is decided.
 enum class SignMethod {
@@ -41,6 +42,9 @@ struct SparseSdfSettings {
   /// Make face orientation consistent per connected part first (sdf/orientation.h) so that flipped faces and
   /// inside-out parts do not corrupt the winding number.
   bool orient_faces = true;
+  /// DISN's polygon-soup convention on top of `sign`: cavities that the surface seals at the voxel size (gaps under
+  /// about 1.7 voxels, sdf/sealed.h) count as inside. Samples drawn from the grid (disn_samples) follow it.
+  bool seal = false;
 };
 
 /// What the construction did (for reports and benchmarks).
@@ -50,6 +54,7 @@ struct SparseSdfStats {
   long inside_tiles = 0;         ///< 8^3 tiles marked inside beyond the band
   long flipped_faces = 0;        ///< faces re-oriented before signing
   SignMethod sign = SignMethod::kNone;  ///< the method actually used (Auto resolved)
+  long sealed_voxels = 0;        ///< with `seal`: non-wall voxels the exterior flood did not reach
   /// Wall seconds per stage: orient + sign-method choice, exact band (per leaf), leaf insertion, signs.
   double seconds_setup = 0, seconds_topology = 0, seconds_exact = 0, seconds_sign = 0;
 };
@@ -84,6 +89,9 @@ class SparseSdf {
   [[nodiscard]] size_t memory_bytes() const;
   /// Index bounds (inclusive) of the active voxels; invalid Box3 when empty. Positions = index * voxel_size.
   [[nodiscard]] Box3 active_index_bounds() const;
+  /// The sealed cavities the grid was signed with (SparseSdfSettings::seal), null otherwise and for grids read
+  /// from files.
+  [[nodiscard]] const SealedCavities* sealed() const;
 
   /// Write a .vdb holding one FloatGrid named "sdf" (class level set). Byte-identical for identical grids
   /// (the file UUID is derived from the content). Atomic. Throws IoError naming the path.

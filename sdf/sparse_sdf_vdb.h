@@ -2,6 +2,7 @@
 // cubes over the active leaves). Including this header pulls in OpenVDB: do it from .cpp files only.
 #pragma once
 
+#include "sdf/sealed.h"
 #include "sdf/sparse_sdf.h"
 
 #include <openvdb/openvdb.h>
@@ -10,6 +11,7 @@ namespace sdfkit {
 
 struct SparseSdf::Impl {
   openvdb::FloatGrid::Ptr grid;  ///< never null; treated as immutable once wrapped
+  std::shared_ptr<const SealedCavities> sealed;  ///< the cavities the signs took as inside (seal), else null
 };
 
 /// The grid (shared, read-only). Index (i, j, k) sits at world position voxel_size * ((i, j, k) - offset), see
@@ -17,7 +19,7 @@ struct SparseSdf::Impl {
 inline openvdb::FloatGrid::ConstPtr vdb_grid(const SparseSdf& sdf) { return sdf.impl().grid; }
 
 /// Wrap an existing grid (it must not be modified afterwards). Throws InvalidInput if null or not uniform.
-SparseSdf sparse_sdf_from_grid(openvdb::FloatGrid::Ptr grid);
+SparseSdf sparse_sdf_from_grid(openvdb::FloatGrid::Ptr grid, std::shared_ptr<const SealedCavities> sealed = nullptr);
 
 /// Grids built by sdfkit shift their index space by this many voxels on each axis, so that the object frame's
 /// [-1.2, 1.2]^3 box lies inside one of OpenVDB's 4096^3 top-level nodes: around index 0 it would straddle

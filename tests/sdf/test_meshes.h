@@ -7,7 +7,9 @@
 #include "core/types.h"
 
 #include <functional>
+#include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace sdfkit::test {
@@ -34,6 +36,20 @@ inline Mesh open_box(double s = 0.5) {
 /// Every k-th face reversed.
 inline Mesh flip_every(Mesh m, int k) {
   for (Eigen::Index f = 0; f < m.F.rows(); f += k) std::swap(m.F(f, 1), m.F(f, 2));
+  return m;
+}
+
+/// A cabinet [-0.5, 0.5]^3 of closed slabs `wall` thick (back, sides, bottom, top) closed in front (+z) by two doors
+/// with a gap `gap` between them at x = 0, as one soup: the exact sign calls the hollow outside whatever the gap.
+inline Mesh slab_cabinet(double gap, double wall = 0.06) {
+  const double s = 0.5, t = wall;
+  const std::pair<Vec3, Vec3> slabs[] = {
+      {Vec3(-s, -s, -s), Vec3(s, s, -s + t)},     {Vec3(-s, -s, -s), Vec3(-s + t, s, s)},
+      {Vec3(s - t, -s, -s), Vec3(s, s, s)},       {Vec3(-s, -s, -s), Vec3(s, -s + t, s)},
+      {Vec3(-s, s - t, -s), Vec3(s, s, s)},       {Vec3(-s, -s, s - t), Vec3(-gap / 2, s, s)},
+      {Vec3(gap / 2, -s, s - t), Vec3(s, s, s)}};
+  Mesh m = make_box(slabs[0].first, slabs[0].second);
+  for (size_t i = 1; i < std::size(slabs); ++i) m = concatenate(m, make_box(slabs[i].first, slabs[i].second));
   return m;
 }
 
