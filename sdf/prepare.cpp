@@ -93,7 +93,7 @@ std::vector<std::string> prepared_differences(const std::string& shape_dir, cons
     const std::string got = v && v->is_string() ? v->get<std::string>() : "";
     bool ok = false;
     switch (s.grid.sign) {
-      case SignMethod::kAuto: ok = got == "pseudo_normal" || got == "winding_number"; break;
+      case SignMethod::kAuto:  // either resolution; an explicit pseudo-normal request falls back to winding numbers
       case SignMethod::kPseudoNormal: ok = got == "pseudo_normal" || got == "winding_number"; break;
       case SignMethod::kWindingNumber: ok = got == "winding_number"; break;
       case SignMethod::kNone: ok = got == "none"; break;
@@ -127,21 +127,26 @@ std::vector<std::string> prepared_differences(const std::string& shape_dir, cons
 }
 
 namespace {
-PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const std::string& hash,
-                           const MeshReport* read_report, const std::string& shape_dir, const PrepareSettings& settings,
-                           const ProgressFn& progress) {
-  const auto t0 = std::chrono::steady_clock::now();
+/// The status a shape starts with: skipped when it is complete with `settings` (and not overwritten), else the
+/// settings its complete files were made with otherwise (none for a new or overwritten shape).
+PrepareStatus initial_status(const std::string& shape_dir, const PrepareSettings& settings) {
   PrepareStatus st;
   st.shape_dir = shape_dir;
-  const ShapeFiles files(shape_dir);
   if (!settings.overwrite && shape_is_complete(shape_dir)) {
     st.redone = prepared_differences(shape_dir, settings);
-    if (st.redone.empty()) {
-      st.skipped = true;
-      return st;
-    }
+    st.skipped = st.redone.empty();
     st.frame_changed = std::find(st.redone.begin(), st.redone.end(), "up") != st.redone.end();
   }
+  return st;
+}
+
+/// Prepares the shape whose status initial_status gave (not skipped).
+PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const std::string& hash,
+                           const MeshReport* read_report, PrepareStatus st, const PrepareSettings& settings,
+                           const ProgressFn& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string shape_dir = st.shape_dir;
+  const ShapeFiles files(shape_dir);
   auto report = [&](double f) {
     if (progress && !progress(f)) throw Error(source + ": cancelled");
   };
@@ -230,20 +235,18 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
 
 PrepareStatus prepare_shape(const std::string& mesh_path, const std::string& shape_dir,
                             const PrepareSettings& settings, const ProgressFn& progress) {
-  if (!settings.overwrite && shape_is_complete(shape_dir) && prepared_differences(shape_dir, settings).empty()) {
-    PrepareStatus st;
-    st.skipped = true;
-    st.shape_dir = shape_dir;
-    return st;
-  }
+  PrepareStatus st = initial_status(shape_dir, settings);
+  if (st.skipped) return st;  // before reading the mesh
   MeshReport report;
   const Mesh mesh = to_y_up(read_mesh(mesh_path, &report), settings.up);
-  return prepare_impl(mesh, mesh_path, fnv1a_hex(read_file(mesh_path)), &report, shape_dir, settings, progress);
+  return prepare_impl(mesh, mesh_path, fnv1a_hex(read_file(mesh_path)), &report, std::move(st), settings, progress);
 }
 
 PrepareStatus prepare_mesh(const Mesh& input, const std::string& source, const std::string& shape_dir,
                            const PrepareSettings& settings, const ProgressFn& progress) {
-  return prepare_impl(input, source, "", nullptr, shape_dir, settings, progress);
+  PrepareStatus st = initial_status(shape_dir, settings);
+  if (st.skipped) return st;
+  return prepare_impl(input, source, "", nullptr, std::move(st), settings, progress);
 }
 
 }  // namespace sdfkit

@@ -542,7 +542,7 @@ long fill_inside_tiles(FloatTree& tree, const std::vector<LeafT*>& leaves, const
 }
 
 /// The sealed cavities of the unsigned band in `tree` (sdf/sealed.h): the box of its active voxels grown by one voxel
-/// (so that the flood starts beyond the band), wall voxels where the band is within SealedCavities::kWallWidth voxels.
+/// (so that the flood starts beyond the band), wall voxels where the band is within g.wall of the surface.
 SealedCavities sealed_cavities(const FloatTree& tree, const BandGrid& g) {
   openvdb::CoordBBox bb;
   tree.evalActiveVoxelBoundingBox(bb);
@@ -551,9 +551,8 @@ SealedCavities sealed_cavities(const FloatTree& tree, const BandGrid& g) {
   const Coord lo = bb.min(), dim = bb.dim();
   const auto ny = static_cast<size_t>(dim.y()), nz = static_cast<size_t>(dim.z());
   std::vector<uint8_t> wall(static_cast<size_t>(dim.x()) * ny * nz, 0);
-  const auto limit = static_cast<float>(SealedCavities::kWallWidth * g.h);
   for (auto it = tree.cbeginValueOn(); it; ++it) {
-    if (!it.isVoxelValue() || std::abs(*it) > limit) continue;
+    if (!it.isVoxelValue() || std::abs(*it) > g.wall) continue;
     const Coord c = it.getCoord() - lo;
     wall[(static_cast<size_t>(c.x()) * ny + static_cast<size_t>(c.y())) * nz + static_cast<size_t>(c.z())] = 1;
   }
@@ -694,9 +693,9 @@ SparseSdf SparseSdf::from_mesh(const MeshQueries& queries, const SparseSdfSettin
 
   std::shared_ptr<const SealedCavities> sealed;
   if (s.seal) {
+    g.wall = static_cast<float>(SealedCavities::kWallWidth * g.h);
     sealed = std::make_shared<const SealedCavities>(sealed_cavities(tree, g));
     st.sealed_voxels = sealed->sealed_voxels();
-    g.wall = static_cast<float>(SealedCavities::kWallWidth * g.h);
   }
   if (method != SignMethod::kNone) {
     // Inside measure: the winding number, or 1/0 from the pseudo-normal at the closest feature (closed meshes); with
