@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 
+#include <array>
 #include <cmath>
 
 namespace sdfkit {
@@ -57,21 +58,29 @@ bool SealedCavities::contains(const Vec3& p, const MeshDistance& exact) const {
                           static_cast<int32_t>(std::lround(p.z() / h_)) + offset_ - lo_.z());
   const uint8_t s = state(c.x(), c.y(), c.z());
   if (s != kWall) return s == kSealed;
-  // Near the surface: what p reaches without crossing it. Exterior wins, so the order of the neighbours does not
-  // matter.
-  bool sealed = false;
+  // Near the surface: what p reaches without crossing it. A visible exterior neighbour decides "no", so the
+  // exterior neighbours are tried first, then the sealed ones until one is visible; without a sealed neighbour the
+  // answer is "no" without a query. The result does not depend on this order, only the number of segment queries.
+  std::array<Vec3, 26> exterior, cavity;
+  int n_exterior = 0, n_cavity = 0;
   for (int dx = -1; dx <= 1; ++dx)
     for (int dy = -1; dy <= 1; ++dy)
       for (int dz = -1; dz <= 1; ++dz) {
         const uint8_t n = state(c.x() + dx, c.y() + dy, c.z() + dz);
-        if (n == kWall) continue;
+        if (n == kWall) continue;  // also the centre voxel itself
         const Vec3 q(h_ * (c.x() + dx + lo_.x() - offset_), h_ * (c.y() + dy + lo_.y() - offset_),
                      h_ * (c.z() + dz + lo_.z() - offset_));
-        if (exact.segment_may_cross(p, q)) continue;
-        if (n == kExterior) return false;
-        sealed = true;
+        if (n == kExterior)
+          exterior[static_cast<size_t>(n_exterior++)] = q;
+        else
+          cavity[static_cast<size_t>(n_cavity++)] = q;
       }
-  return sealed;
+  if (n_cavity == 0) return false;
+  for (int k = 0; k < n_exterior; ++k)
+    if (!exact.segment_may_cross(p, exterior[static_cast<size_t>(k)])) return false;
+  for (int k = 0; k < n_cavity; ++k)
+    if (!exact.segment_may_cross(p, cavity[static_cast<size_t>(k)])) return true;
+  return false;
 }
 
 }  // namespace sdfkit

@@ -1,4 +1,6 @@
 #include "core/error.h"
+#include "core/mesh_io.h"
+#include "core/random.h"
 #include "sdf/distance.h"
 #include "sdf/orientation.h"
 #include "sdf/samples.h"
@@ -8,7 +10,9 @@
 
 #include <doctest/doctest.h>
 
+#include <array>
 #include <cmath>
+#include <vector>
 
 using namespace sdfkit;
 
@@ -183,4 +187,81 @@ TEST_CASE("sealed cavities: sealing needs a sign") {
   s.seal = true;
   s.sign = SignMethod::kNone;
   CHECK_THROWS_AS(SparseSdf::from_mesh(cabinet(0.01), s), InvalidInput);
+}
+
+TEST_CASE("sealed cavities: contains() agrees with a slow reference on random walls behind plates") {
+  // 9^3 voxels at h = 1, offset 4 (index i at i - 4), 70% walls at random (open voxels below the percolation
+  // threshold, so most open voxels are sealed pockets; the exterior reaches in from the faces).
+  // Two plates hide some neighbours from some points. Reference: an independent breadth-first flood and
+  // the rule of sealed.h, every neighbour tried.
+  constexpr int n = 9;
+  Rng rng(17);
+  std::vector<uint8_t> wall(n * n * n);
+  for (uint8_t& w : wall) w = rng.uniform() < 0.7;
+  const Mesh plates =
+      concatenate(make_box(Vec3(-1.2, -5, -5), Vec3(-1.1, 5, 5)), make_box(Vec3(-5, 0.6, -5), Vec3(5, 0.7, 5)));
+  const MeshDistance exact(plates);
+  const SealedCavities sealed(Eigen::Vector3i::Zero(), Eigen::Vector3i::Constant(n), 4, 1.0, wall);
+
+  // 0 sealed, 1 wall, 2 exterior, as a breadth-first flood from the box's faces finds them.
+  auto at = [&](int x, int y, int z) { return static_cast<size_t>((x * n + y) * n + z); };
+  auto inside_box = [&](int x, int y, int z) { return x >= 0 && y >= 0 && z >= 0 && x < n && y < n && z < n; };
+  std::vector<uint8_t> state(wall.size());
+  std::vector<std::array<int, 3>> queue;
+  for (int x = 0; x < n; ++x)
+    for (int y = 0; y < n; ++y)
+      for (int z = 0; z < n; ++z) {
+        state[at(x, y, z)] = wall[at(x, y, z)];
+        const bool face = x == 0 || y == 0 || z == 0 || x == n - 1 || y == n - 1 || z == n - 1;
+        if (face && !wall[at(x, y, z)]) {
+          state[at(x, y, z)] = 2;
+          queue.push_back({x, y, z});
+        }
+      }
+  for (size_t q = 0; q < queue.size(); ++q) {
+    const auto [x, y, z] = queue[q];
+    const int step[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (const auto& d : step) {
+      const int a = x + d[0], b = y + d[1], c = z + d[2];
+      if (inside_box(a, b, c) && state[at(a, b, c)] == 0) {
+        state[at(a, b, c)] = 2;
+        queue.push_back({a, b, c});
+      }
+    }
+  }
+  auto reference = [&](const Vec3& p) {
+    const int x = static_cast<int>(std::lround(p.x())) + 4, y = static_cast<int>(std::lround(p.y())) + 4,
+              z = static_cast<int>(std::lround(p.z())) + 4;
+    if (!inside_box(x, y, z)) return false;
+    if (state[at(x, y, z)] != 1) return state[at(x, y, z)] == 0;
+    bool seen_exterior = false, seen_sealed = false;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const int a = x + dx, b = y + dy, c = z + dz;
+          const int s = inside_box(a, b, c) ? state[at(a, b, c)] : 2;
+          if (s == 1 || exact.segment_may_cross(p, Vec3(a - 4, b - 4, c - 4))) continue;
+          (s == 2 ? seen_exterior : seen_sealed) = true;
+        }
+    return seen_sealed && !seen_exterior;
+  };
+  long mismatches = 0, wall_in = 0, wall_out_beside_cavity = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3 p(rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-5, 5));
+    const bool want = reference(p);
+    mismatches += sealed.contains(p, exact) != want;
+    const int x = static_cast<int>(std::lround(p.x())) + 4, y = static_cast<int>(std::lround(p.y())) + 4,
+              z = static_cast<int>(std::lround(p.z())) + 4;
+    if (!inside_box(x, y, z) || state[at(x, y, z)] != 1) continue;
+    bool cavity_beside = false;
+    for (int d = 0; d < 27; ++d) {
+      const int a = x + d / 9 - 1, b = y + d / 3 % 3 - 1, c = z + d % 3 - 1;
+      cavity_beside |= inside_box(a, b, c) && state[at(a, b, c)] == 0;
+    }
+    wall_in += want;
+    wall_out_beside_cavity += !want && cavity_beside;
+  }
+  CHECK(mismatches == 0);
+  CHECK(wall_in > 100);                 // both outcomes of the neighbour rule occur
+  CHECK(wall_out_beside_cavity > 100);
 }
