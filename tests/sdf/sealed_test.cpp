@@ -229,9 +229,12 @@ TEST_CASE("sealed cavities: contains() agrees with a slow reference on random wa
       }
     }
   }
+  auto voxel_of = [](const Vec3& p) {  // the nearest voxel's box indices
+    return std::array<int, 3>{static_cast<int>(std::lround(p.x())) + 4, static_cast<int>(std::lround(p.y())) + 4,
+                              static_cast<int>(std::lround(p.z())) + 4};
+  };
   auto reference = [&](const Vec3& p) {
-    const int x = static_cast<int>(std::lround(p.x())) + 4, y = static_cast<int>(std::lround(p.y())) + 4,
-              z = static_cast<int>(std::lround(p.z())) + 4;
+    const auto [x, y, z] = voxel_of(p);
     if (!inside_box(x, y, z)) return false;
     if (state[at(x, y, z)] != 1) return state[at(x, y, z)] == 0;
     bool seen_exterior = false, seen_sealed = false;
@@ -250,8 +253,7 @@ TEST_CASE("sealed cavities: contains() agrees with a slow reference on random wa
     const Vec3 p(rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-5, 5));
     const bool want = reference(p);
     mismatches += sealed.contains(p, exact) != want;
-    const int x = static_cast<int>(std::lround(p.x())) + 4, y = static_cast<int>(std::lround(p.y())) + 4,
-              z = static_cast<int>(std::lround(p.z())) + 4;
+    const auto [x, y, z] = voxel_of(p);
     if (!inside_box(x, y, z) || state[at(x, y, z)] != 1) continue;
     bool cavity_beside = false;
     for (int d = 0; d < 27; ++d) {
