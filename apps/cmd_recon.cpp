@@ -77,7 +77,7 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
     if (!refine && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-camera");
   for (const char* f : {"--refine-distance", "--refine-evals", "--refine-max-deg", "--refine-max-distance"})
     if (!local && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-local");
-  for (const char* f : {"--pose-model", "--flip-check", "--pose-distances"})
+  for (const char* f : {"--pose-model", "--flip-check", "--pose-distances", "--pose-tta"})
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
   if (dense && given("--no-follow")) throw InvalidInput("--no-follow applies to the adaptive extraction, not to --dense");
@@ -89,7 +89,7 @@ std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
     std::string input, out, model, pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto",
                 framing = "auto", box;
-    std::string pose_distances = "off";
+    std::string pose_distances = "off", pose_tta = "mirror";
     ReconSettings s;
     bool json = false, no_preview = false;
     int jobs = 1;
@@ -186,6 +186,11 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "gives that azimuth more than this many times the probability of the regressed one (0 = off)")
       ->capture_default_str()
       ->check(non_negative());
+  app.add_option("--pose-tta", o->pose_tta,
+                 "mirror: the pose network also reads the input flipped left to right and the two estimates are "
+                 "combined (docs/recon.md); none: one reading")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"mirror", "none"}));
   app.add_flag("--refine-camera", o->refine,
                "test-time camera refinement (opt-in, docs/recon.md): reconstruct coarsely (--refine-res) for camera "
                "candidates turned in azimuth within +-(--refine-sweep) degrees, keep the one whose mesh's "
@@ -264,6 +269,7 @@ std::function<int()> setup_recon(CLI::App& app) {
       };
     }
     o->s.framing.reframe = parse_reframing(o->framing);
+    o->s.pose_mirror_tta = o->pose_tta == "mirror";
     if (o->pose_distances != "off")
       std::tie(o->s.pose_distance_min, o->s.pose_distance_max) =
           parse_positive_range(o->pose_distances, "recon: --pose-distances");

@@ -3,6 +3,8 @@
 #include "camera/rotation6d.h"
 #include "core/json.h"
 
+#include <Eigen/SVD>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -38,6 +40,7 @@ PoseNetSettings PoseNetSettings::from_json(const Json& j) {
 
 namespace {
 constexpr double kSlope = 0.2;
+constexpr double kPi = 3.14159265358979323846;
 
 void conv_block(Sequential<float>& s, int in, int out, int k, int stride) {
   s.emplace<Conv2d<float>>(Conv2dSettings{in, out, k, stride, k / 2, true});
@@ -179,26 +182,94 @@ Camera PoseNet::camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z
 }
 
 PosePrediction PoseNet::predict(const MatrixXfR& images) {
-  run(images, false);
-  PosePrediction p;
+  const Eigen::Index B = images.rows();
+  if (mirror_tta_) {
+    MatrixXfR both(2 * B, images.cols());
+    both.topRows(B) = images;
+    both.bottomRows(B) = flip_images(images, s_.image_size);
+    run(both, false);
+  } else {
+    run(images, false);
+  }
   const int K = s_.azimuth_bins;
-  for (Eigen::Index b = 0; b < images.rows(); ++b) {
-    Eigen::Matrix<float, 6, 1> r;
-    for (int k = 0; k < 6; ++k) r[k] = rot_[b * 6 + k];
-    p.rot6d.push_back(r);
-    const Camera cam = camera_from_outputs(r, dist_[b], s_.centre_head ? centre_.ptr() + b * 2 : nullptr);
+  // Camera and azimuth probabilities of row r of the last run.
+  const auto reading = [&](Eigen::Index r, std::vector<float>& prob) {
+    Eigen::Matrix<float, 6, 1> v;
+    for (int k = 0; k < 6; ++k) v[k] = rot_[r * 6 + k];
+    prob.clear();
+    if (K > 0) {
+      std::vector<double> pd(static_cast<size_t>(K));
+      softmax_cross_entropy(az_.ptr() + r * K, nullptr, K, nullptr, pd.data());
+      prob.assign(pd.begin(), pd.end());
+    }
+    return std::make_pair(v, camera_from_outputs(v, dist_[r], s_.centre_head ? centre_.ptr() + r * 2 : nullptr));
+  };
+  PosePrediction p;
+  for (Eigen::Index b = 0; b < B; ++b) {
+    std::vector<float> prob;
+    auto [r6, cam] = reading(b, prob);
+    p.rot6d.push_back(r6);
+    if (mirror_tta_) {
+      std::vector<float> mprob;
+      const Camera other = mirror_camera(reading(B + b, mprob).second);
+      mprob = mirror_azimuth_prob(mprob);
+      for (size_t k = 0; k < prob.size(); ++k) prob[k] = 0.5f * (prob[k] + mprob[k]);
+      const double angle = rotation_angle_deg(cam.R, other.R);
+      p.mirror_angle.push_back(angle);
+      // Without the azimuth head nothing tells the readings apart: they are always averaged, except when exactly
+      // opposite (their sum is singular, no mean exists; a half turn apart is 2 cos(angle / 2) from singular).
+      if (angle <= kMirrorAgreeDeg || (K == 0 && angle < 179.9)) {
+        cam.R = nearest_rotation(cam.R + other.R);
+        cam.t = 0.5 * (cam.t + other.t);
+        cam.K = 0.5 * (cam.K + other.K);
+      } else if (K > 0 && azimuth_window_mass(prob, camera_azimuth(other)) >
+                              azimuth_window_mass(prob, camera_azimuth(cam))) {
+        cam = other;
+      }
+    }
     p.regressed.push_back(cam);
     double shift = 0;
     if (K > 0) {
-      std::vector<double> prob(static_cast<size_t>(K));
-      softmax_cross_entropy(az_.ptr() + b * K, nullptr, K, nullptr, prob.data());
-      p.azimuth_prob.emplace_back(prob.begin(), prob.end());
-      shift = azimuth_flip_shift(p.azimuth_prob.back(), camera_azimuth(cam), flip_check_);
+      p.azimuth_prob.push_back(prob);
+      shift = azimuth_flip_shift(prob, camera_azimuth(cam), flip_check_);
     }
     p.azimuth_shift.push_back(shift);
     p.cameras.push_back(shift == 0 ? cam : turn_about_vertical(cam, shift));
   }
   return p;
+}
+
+Mat3 nearest_rotation(const Mat3& M) {
+  const Eigen::JacobiSVD<Mat3> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Vec3 sv = svd.singularValues();
+  require(std::isfinite(sv[0]) && sv[2] > 1e-9 * std::max(sv[0], 1e-300),
+          "nearest rotation: the matrix is singular (no mean of these rotations)");
+  Mat3 D = Mat3::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) D(2, 2) = -1;
+  return svd.matrixU() * D * svd.matrixV().transpose();
+}
+
+double rotation_angle_deg(const Mat3& A, const Mat3& B) {
+  const double c = std::clamp(0.5 * ((A.transpose() * B).trace() - 1.0), -1.0, 1.0);
+  return std::acos(c) * 180.0 / kPi;
+}
+
+MatrixXfR flip_images(const MatrixXfR& images, int size) {
+  require(size > 0 && images.cols() % (static_cast<Eigen::Index>(size) * size) == 0,
+          "flip images: rows are not C x " + std::to_string(size) + " x " + std::to_string(size));
+  MatrixXfR out(images.rows(), images.cols());
+  const Eigen::Index lines = images.cols() / size;
+  for (Eigen::Index b = 0; b < images.rows(); ++b)
+    for (Eigen::Index l = 0; l < lines; ++l)
+      out.row(b).segment(l * size, size) = images.row(b).segment(l * size, size).reverse();
+  return out;
+}
+
+std::vector<float> mirror_azimuth_prob(const std::vector<float>& prob) {
+  const size_t K = prob.size();
+  std::vector<float> out(K);
+  for (size_t k = 0; k < K; ++k) out[k] = prob[(K - k) % K];
+  return out;
 }
 
 double pose_point_loss(const Eigen::Matrix3d& R, double d, const PointsF& points, const Camera& truth,

@@ -59,6 +59,8 @@ struct PosePrediction {
   std::vector<double> azimuth_shift;  ///< degrees the flip check turned each camera about +y (0 = kept)
   std::vector<Eigen::Matrix<float, 6, 1>> rot6d;  ///< raw 6D outputs
   std::vector<std::vector<float>> azimuth_prob;   ///< softmax of the azimuth head (empty without the head)
+  /// With mirror TTA: degrees between the rotations read from the image and from its mirror (empty without it).
+  std::vector<double> mirror_angle;
 };
 
 /// Per-item options of a training forward/backward.
@@ -71,6 +73,8 @@ struct PoseLossOptions {
 
 /// Default margin of the flip check (PoseNet::set_flip_check).
 inline constexpr double kDefaultFlipCheck = 1.5;
+/// Mirror TTA: the two readings are averaged when their rotations are at most this many degrees apart.
+inline constexpr double kMirrorAgreeDeg = 30.0;
 
 class PoseNet {
  public:
@@ -92,6 +96,17 @@ class PoseNet {
   /// 0 turns it off. Throws InvalidInput for a negative or non-finite margin.
   void set_flip_check(double margin);
   [[nodiscard]] double flip_check() const { return flip_check_; }
+  /// Mirror test-time augmentation in predict(): the network also reads each image flipped left to right, which
+  /// shows the object mirrored across its x = 0 plane through mirror_camera() of the true camera (the same object
+  /// when it is symmetric about that plane, as ShapeNet's and the benchmark's shapes are). The second reading,
+  /// mirrored back, is a second estimate of the camera: when the two rotations are within kMirrorAgreeDeg they are
+  /// averaged (the rotation nearest to their sum, the mean of the translations and principal points), otherwise the
+  /// reading whose azimuth the classifier supports more is kept (the image's own on ties). Without the azimuth head
+  /// they are always averaged (but when exactly opposite: the image's own).
+  /// The azimuth probabilities are the mean of the image's and the mirrored ones (bin k <-> bin -k), and the flip
+  /// check runs on them. Costs a second forward pass.
+  void set_mirror_tta(bool on) { mirror_tta_ = on; }
+  [[nodiscard]] bool mirror_tta() const { return mirror_tta_; }
 
   /// One training forward + backward: returns the batch's L_cam and ADDS the gradients of weight x L_cam to the
   /// parameter gradients (call params().zero_grad() first). points[b] are item b's object-frame points. Data-
@@ -132,6 +147,7 @@ class PoseNet {
   ParamStore<float> store_;
   Tensor x_, feat_, rot_, dist_, az_, centre_;
   double flip_check_ = kDefaultFlipCheck;
+  bool mirror_tta_ = false;
 };
 
 /// L_cam of one item and its gradient wrt (R_pred, d_pred); exposed for tests.
@@ -159,6 +175,15 @@ double pose_centre_loss(const Eigen::Vector2d& o, const Camera& truth, Eigen::Ve
 /// not strictly inside (a2, b2).
 std::pair<double, double> distance_logit_remap(double a, double b, double a2, double b2);
 
+/// The rotation nearest to M in the Frobenius norm (U V^T of M's SVD, det +1): the chordal mean of rotations whose
+/// sum is M. Throws InvalidInput when M is singular (e.g. two opposite rotations), where no mean is defined.
+Mat3 nearest_rotation(const Mat3& M);
+/// Angle in degrees of the rotation taking A to B (geodesic distance on SO(3)).
+double rotation_angle_deg(const Mat3& A, const Mat3& B);
+/// Images (B x 3 S S channels-first rows) flipped left to right.
+MatrixXfR flip_images(const MatrixXfR& images, int size);
+/// Azimuth probabilities of the mirrored view: bin k gets bin (K - k) mod K (the azimuth a becomes -a).
+std::vector<float> mirror_azimuth_prob(const std::vector<float>& prob);
 /// Azimuth of a camera centre (degrees in [0, 360), camera.h's convention: 0 at +z, 90 at +x).
 double camera_azimuth(const Camera& cam);
 

@@ -413,6 +413,7 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
     replicas.push_back(std::make_unique<PoseNet>(net.settings(), true));
     replicas.back()->share_parameters(net);
     replicas.back()->set_flip_check(net.flip_check());
+    replicas.back()->set_mirror_tta(net.mirror_tta());
     nets.push_back(replicas.back().get());
   }
   struct ItemScore {

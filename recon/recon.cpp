@@ -83,12 +83,14 @@ std::unique_ptr<Reconstructor> Reconstructor::load(const std::string& sdf_path, 
   return std::make_unique<Reconstructor>(std::move(sdf), std::move(pose));
 }
 
-Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_check, double* flip_turn_deg) const {
+Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_check, double* flip_turn_deg,
+                                     bool mirror_tta) const {
   if (!pose_) throw InvalidInput("no pose model loaded: give the camera (--cam FILE) or a pose model");
   MatrixXfR images(1, input.size());
   images.row(0) = input.transpose();
   std::lock_guard<std::mutex> lock(pose_mutex_);
   pose_->set_flip_check(flip_check);
+  pose_->set_mirror_tta(mirror_tta);
   const PosePrediction p = pose_->predict(images);
   if (flip_turn_deg) *flip_turn_deg = p.azimuth_shift.at(0);
   return p.cameras.at(0);
@@ -272,10 +274,11 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
     r.camera = *camera;
     r.camera_estimated = false;
   } else {
-    r.camera = estimate_camera(input, settings.flip_check, &r.flip_turn_deg);
+    r.camera = estimate_camera(input, settings.flip_check, &r.flip_turn_deg, settings.pose_mirror_tta);
     if (settings.pose_distance_max > 0)
       r.camera = distance_as_focal(r.camera, settings.pose_distance_min, settings.pose_distance_max);
     r.camera_estimated = true;
+    r.pose_mirror_tta = settings.pose_mirror_tta;
     r.timings.pose = since(t);
   }
   r.initial_camera = r.camera;

@@ -68,6 +68,9 @@ struct ReconSettings {
   /// the regressed camera is turned to the azimuth the head prefers when the head gives that azimuth more than
   /// this many times the probability mass of the regressed one. 0 = the 6D head alone.
   double flip_check = kDefaultFlipCheck;
+  /// Mirror test-time augmentation of the pose network (PoseNet::set_mirror_tta): it also reads the input flipped
+  /// left to right and combines the two estimates. One more pose forward pass (about 10 ms).
+  bool pose_mirror_tta = true;
   /// The training renders' camera distances (camera/views.h: 2.45-3.0). With both set, an estimated camera whose
   /// distance falls outside them is read as a focal length (camera.h's distance_as_focal): the pose network answers
   /// an object magnified by recon's crop with a shorter distance, while that image is the one a camera at a render
@@ -111,6 +114,7 @@ struct ReconResult {
   FramedInput framing;          ///< how run() framed the input (empty for run_input)
   bool camera_estimated = false;
   double flip_turn_deg = 0;     ///< degrees the flip check turned the estimated camera about +y (0 = kept)
+  bool pose_mirror_tta = false; ///< the estimated camera combines the mirrored input's reading
   Camera initial_camera;        ///< the estimated or given camera before refinement
   std::vector<CameraRefineResult> refinements;  ///< one per refinement round (empty when off)
   long evaluations = 0;         ///< field evaluations
@@ -162,9 +166,10 @@ class Reconstructor {
   ReconResult run_input(const Eigen::VectorXf& input, const Camera* camera, const ReconSettings& settings,
                         const std::string& what, const Image* silhouette = nullptr) const;
   /// Camera estimate of a network input (InvalidInput when no pose network is loaded), with the pose model's flip
-  /// check at `flip_check` (ReconSettings::flip_check); *flip_turn_deg (may be null) gets the check's turn.
+  /// check at `flip_check` (ReconSettings::flip_check) and its mirror TTA when `mirror_tta`
+  /// (ReconSettings::pose_mirror_tta); *flip_turn_deg (may be null) gets the check's turn.
   Camera estimate_camera(const Eigen::VectorXf& input, double flip_check = kDefaultFlipCheck,
-                         double* flip_turn_deg = nullptr) const;
+                         double* flip_turn_deg = nullptr, bool mirror_tta = true) const;
 
  private:
   struct MeshStats;

@@ -23,7 +23,10 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
   j["camera"] = camera_to_json(r.input_camera);
   j["network_camera"] = camera_to_json(r.camera);
   j["camera_source"] = r.camera_estimated ? "estimated" : "given";
-  if (r.camera_estimated) j["flip_turn_deg"] = r.flip_turn_deg;
+  if (r.camera_estimated) {
+    j["flip_turn_deg"] = r.flip_turn_deg;
+    j["pose_tta"] = r.pose_mirror_tta ? "mirror" : "none";
+  }
   if (!r.refinements.empty()) {
     Json rounds = Json::array();
     for (const CameraRefineResult& rr : r.refinements)

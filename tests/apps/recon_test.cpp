@@ -297,6 +297,8 @@ TEST_CASE("recon outputs: the format follows -o, a folder only for a folder inpu
       {"recon " + img + " -o " + (dir / "j.obj").string() + " --jobs 0" + cam, "must be > 0 (got 0)"},
       {"recon " + img + " -o " + (dir / "k.obj").string() + " --flip-check 2" + cam, "applies with --cam est"},
       {"recon " + img + " -o " + (dir / "k2.obj").string() + " --pose-distances 2.45,3" + cam, "applies with --cam est"},
+      {"recon " + img + " -o " + (dir / "k4.obj").string() + " --pose-tta none" + cam, "applies with --cam est"},
+      {"recon " + img + " -o " + (dir / "k5.obj").string() + " --pose-tta both --res 33", "--pose-tta"},
       {"recon " + img + " -o " + (dir / "k3.obj").string() + " --pose-distances 3,2 --res 33", "0 < MIN <= MAX"},
       {"recon " + img + " -o " + (dir / "l.obj").string() + " --refine-res 17" + cam, "applies with --refine-camera"},
       {"recon " + img + " -o " + (dir / "m.obj").string() + " --dense --safety 3" + cam, "--safety applies"},

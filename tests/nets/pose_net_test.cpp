@@ -490,3 +490,63 @@ TEST_CASE("a centre head adopted from a model without one starts at the image ce
   PoseNet back(s, false);
   CHECK_THROWS_AS(back.adopt_parameters(to), InvalidInput);
 }
+
+TEST_CASE("rotation helpers of the pose mirror TTA: nearest rotation, angle, flipped images, mirrored bins") {
+  const Mat3 R = Eigen::AngleAxisd(0.7, Vec3(1, 2, -0.5).normalized()).toRotationMatrix();
+  const Vec3 axis = Vec3(-0.3, 1, 0.4).normalized();
+  const Mat3 plus = R * Eigen::AngleAxisd(0.3, axis).toRotationMatrix();
+  const Mat3 minus = R * Eigen::AngleAxisd(-0.3, axis).toRotationMatrix();
+  // The chordal mean of two rotations is their geodesic midpoint; a positive multiple of R is R.
+  CHECK((nearest_rotation(plus + minus) - R).norm() < 1e-12);
+  CHECK((nearest_rotation(2.5 * R) - R).norm() < 1e-12);
+  CHECK(std::fabs(rotation_angle_deg(plus, minus) - 0.6 * 180 / 3.14159265358979323846) < 1e-9);
+  CHECK(rotation_angle_deg(R, R) < 1e-6);
+  // A reflection's nearest rotation has determinant +1.
+  const Mat3 reflected = R * Vec3(1, 1, -1).asDiagonal();
+  CHECK(std::fabs(nearest_rotation(reflected).determinant() - 1) < 1e-12);
+  CHECK_THROWS_AS(nearest_rotation(Mat3::Zero()), InvalidInput);
+  // Flipped images: pixel (c, y, x) comes from (c, y, S - 1 - x); flipping twice gives the image back.
+  const int S = 5;
+  const MatrixXfR img = MatrixXfR::Random(2, 3 * S * S);
+  const MatrixXfR f = flip_images(img, S);
+  for (int b = 0; b < 2; ++b)
+    for (int c = 0; c < 3; ++c)
+      for (int y = 0; y < S; ++y)
+        for (int x = 0; x < S; ++x) CHECK(f(b, (c * S + y) * S + x) == img(b, (c * S + y) * S + S - 1 - x));
+  CHECK((flip_images(f, S) - img).norm() == 0);
+  CHECK_THROWS_AS(flip_images(img, 4), InvalidInput);
+  // Mirrored bins: the mass at azimuth a becomes the mass at -a.
+  std::vector<float> prob(12);
+  for (size_t k = 0; k < prob.size(); ++k) prob[k] = static_cast<float>(k + 1) / 78.f;
+  const std::vector<float> m = mirror_azimuth_prob(prob);
+  for (double a : {0.0, 17.0, 95.0, 200.0, 333.0})
+    CHECK(azimuth_window_mass(m, 360.0 - a) == doctest::Approx(azimuth_window_mass(prob, a)).epsilon(1e-6));
+}
+
+TEST_CASE("pose net mirror TTA: equivariant to flipping the input, the midpoint of readings that agree") {
+  for (const int bins : {0, 12}) {
+    CAPTURE(bins);
+    PoseNet net(tiny_with_head(bins), false);
+    net.init(5);
+    const MatrixXfR img = MatrixXfR::Random(6, 3 * 40 * 40).array() * 0.5f + 0.5f;
+    const PosePrediction plain = net.predict(img);
+    net.set_mirror_tta(true);
+    const PosePrediction tta = net.predict(img);
+    const PosePrediction flipped = net.predict(flip_images(img, 40));
+    REQUIRE(tta.mirror_angle.size() == 6);
+    CHECK(plain.mirror_angle.empty());
+    for (int b = 0; b < 6; ++b) {
+      CAPTURE(b);
+      // The flipped image's estimate is the mirror of the image's: the TTA is exact in the task's symmetry.
+      const Camera expect = mirror_camera(tta.cameras[b]);
+      CHECK((flipped.cameras[b].R - expect.R).norm() < 1e-5);
+      CHECK((flipped.cameras[b].t - expect.t).norm() < 1e-5);
+      CHECK((flipped.cameras[b].K - expect.K).norm() < 1e-4);
+      CHECK(flipped.mirror_angle[b] == doctest::Approx(tta.mirror_angle[b]).epsilon(1e-4));
+      // Readings that agree are averaged: the result lies halfway between the image's reading and the other.
+      if (tta.mirror_angle[b] <= kMirrorAgreeDeg || bins == 0)
+        CHECK(rotation_angle_deg(tta.regressed[b].R, plain.regressed[b].R) ==
+              doctest::Approx(tta.mirror_angle[b] / 2).epsilon(1e-3));
+    }
+  }
+}
