@@ -26,7 +26,7 @@ struct Opts {
   int resolution = 65;
   double iso = 0.003;
   double box_half = 1.05;
-  double keep_fraction = 0.3;
+  double keep_fraction = kDefaultKeepFraction;
   bool json = false;
   bool split_given = false, format_given = false;
 };
@@ -174,7 +174,7 @@ std::function<int()> setup_extract(CLI::App& app) {
       ->capture_default_str()
       ->check(positive());
   app.add_option("--keep-fraction", o->keep_fraction,
-                 "drop mesh components with fewer faces than this fraction of the largest (DISN and recon: 0.3)")
+                 "drop mesh components with fewer faces than this fraction of the largest (recon's default; DISN: 0.3)")
       ->capture_default_str()
       ->check(in_range(0, 1));
   CLI::Option* split_opt = app.add_option("--split", o->split, "dataset: only the shapes of this split (a name looked up as SDF/NAME.lst, or a list file)");

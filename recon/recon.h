@@ -12,6 +12,7 @@
 #include "camera/camera.h"
 #include "camera/image.h"
 #include "core/types.h"
+#include "extract/cleanup.h"
 #include "nets/pose_net.h"
 #include "nets/sdf_net.h"
 #include "recon/camera_refine.h"
@@ -61,7 +62,8 @@ struct ReconSettings {
   /// component the refinement touches comes out whole, as on the dense grid. What makes the adaptive extraction
   /// right for a binary-variant model, whose field (-logit / sdf_scale) is no distance and breaks the bound.
   bool follow_surface = true;
-  double min_component_fraction = 0.3;  ///< DISN's clean-up: drop components under 30% of the largest (faces)
+  /// Clean-up: drop components under this fraction of the largest's faces (extract/cleanup.h; DISN's rule is 0.3)
+  double min_component_fraction = kDefaultKeepFraction;
   bool preview = true;
   int preview_size = 192;        ///< side of each preview panel in pixels
   /// Margin of the pose model's flip check (PoseNet::set_flip_check; used when the model has an azimuth head):
