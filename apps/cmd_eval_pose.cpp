@@ -20,7 +20,8 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
   struct Opts {
     std::string model, data, split = "test";
     PoseEvalSettings e;
-    bool json = false, symmetry = false, mirror_tta = false;
+    bool json = false, symmetry = false;
+    std::string pose_tta = "mirror";
     double symmetry_tol = 0.01;
     double flip_check = kDefaultFlipCheck;
   };
@@ -48,9 +49,11 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                  "more than this many times the probability mass of the regressed one (0 = off: the 6D head alone)")
       ->capture_default_str()
       ->check(non_negative());
-  app.add_flag("--mirror-tta", o->mirror_tta,
-               "also read every view flipped left to right and combine the two estimates (docs/nets.md, pose "
-               "mirror TTA), as `recon --pose-tta mirror` does");
+  app.add_option("--pose-tta", o->pose_tta,
+                 "mirror: also read every view flipped left to right and combine the two estimates (docs/nets.md, "
+                 "pose mirror TTA), as recon does by default; none: one reading")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"mirror", "none"}));
   app.add_option("--zoom", o->e.zoom,
                  "magnify every view by this factor about its centre and divide the true camera distance by it "
                  "(less where the object would leave the frame): how well the model reads the distance from the "
@@ -67,7 +70,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     const auto t0 = std::chrono::steady_clock::now();
     auto net = load_pose_model(o->model);
     net->set_flip_check(o->flip_check);
-    net->set_mirror_tta(o->mirror_tta);
+    net->set_mirror_tta(o->pose_tta == "mirror");
     DatasetSettings ds;
     ds.root = o->data;
     ds.split = o->split;
@@ -106,7 +109,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       for (const auto& [k, v] : per) cats[k] = scores(v);
       Json j = scores(all);
       j.update({{"model", o->model}, {"data", o->data}, {"split", o->split}, {"shapes", data.size()},
-                {"azimuth_bins", net->settings().azimuth_bins}, {"flip_check", o->flip_check}, {"mirror_tta", o->mirror_tta},
+                {"azimuth_bins", net->settings().azimuth_bins}, {"flip_check", o->flip_check}, {"pose_tta", o->pose_tta},
                 {"points", o->e.points}, {"zoom", o->e.zoom}, {"reframe", o->e.reframe}, {"seconds", seconds}, {"per_category", cats}});
       if (o->symmetry) {
         j["symmetry_tol"] = o->symmetry_tol;
