@@ -7,6 +7,7 @@
 #include "core/files.h"
 #include "core/json.h"
 #include "core/mesh_io.h"
+#include "extract/cleanup.h"
 #include "nets/plot.h"
 #include "refine/carve.h"
 #include "refine/refine.h"
@@ -31,6 +32,7 @@ std::string beside(const std::string& mesh, const std::string& suffix) {
 std::function<int()> setup_refine(CLI::App& app) {
   struct Opts {
     std::string views, out, init = "sphere", names, subdivide;
+    double init_keep_fraction = 0.05;
     RefineSettings s;
     int sphere_level = 4;
     double sphere_radius = 1.0;
@@ -54,6 +56,12 @@ std::function<int()> setup_refine(CLI::App& app) {
                  "starting mesh: 'sphere' (an icosphere, see --sphere-level) or a mesh file in the views' object "
                  "frame, e.g. a `recon` result of one of the views")
       ->capture_default_str();
+  app.add_option("--init-keep-fraction", o->init_keep_fraction,
+                 "a mesh file's components with fewer faces than this fraction of its largest are dropped before "
+                 "the optimisation: a few-pixel piece gets a silhouette gradient it cannot follow and flies off "
+                 "(0 keeps all)")
+      ->capture_default_str()
+      ->check(in_range(0, 1));
   app.add_option("--sphere-level", o->sphere_level, "subdivisions of the starting icosphere (4: 2562 vertices)")
       ->check(in_range(0, 7))
       ->capture_default_str();
@@ -153,6 +161,15 @@ std::function<int()> setup_refine(CLI::App& app) {
     }
     const std::vector<TargetView> views = read_target_views(o->views, s.raster.background, only);
     Mesh init = o->init == "sphere" ? refine_sphere(o->sphere_level, o->sphere_radius) : read_mesh(o->init);
+    long init_dropped = 0;
+    if (o->init != "sphere") {
+      CleanupReport cleaned;
+      init = cleanup(init, {o->init_keep_fraction, ComponentMeasure::kFaces}, &cleaned);
+      init_dropped = cleaned.components - cleaned.kept_components;
+      if (init_dropped > 0)
+        std::fprintf(stderr, "refine: %s: %ld small components dropped (--init-keep-fraction %g)\n", o->init.c_str(),
+                     init_dropped, o->init_keep_fraction);
+    }
     Json carve_json = nullptr;
     if (o->carve) {
       CarveReport cr;
@@ -201,6 +218,7 @@ std::function<int()> setup_refine(CLI::App& app) {
     const Json summary = {{"views", o->views},
                           {"mesh", o->out},
                           {"init", o->init},
+                          {"init_components_removed", init_dropped},
                           {"carve", carve_json},
                           {"vertices", r.mesh.V.rows()},
                           {"faces", r.mesh.F.rows()},

@@ -110,3 +110,28 @@ TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual h
   CHECK(r.err.find("--carve") != std::string::npos);
   fs::remove_all(dir);
 }
+
+TEST_CASE("sdfkit refine --init MESH: small components of the starting mesh are dropped first, unless asked not to") {
+  const fs::path dir = box_view_set("refine_cli_init", 32);
+  const std::string views = (dir / "views").string();
+  // The box (12 faces) plus a far tetrahedron (4 faces, a third of the box's): dropped at 0.5, kept at 0.
+  const std::string init = (dir / "init.obj").string();
+  write_text_atomic(init, read_file((dir / "box.obj").string()) +
+                              "v 0.8 0.8 0.8\nv 0.85 0.8 0.8\nv 0.8 0.85 0.8\nv 0.8 0.8 0.85\n"
+                              "f 9 11 10\nf 9 10 12\nf 9 12 11\nf 10 11 12\n");
+  const std::string out = (dir / "out.obj").string();
+  test::CliRun r = test::run_sdfkit("refine " + views + " -o " + out + " --init " + init +
+                                    " --iters 2 --init-keep-fraction 0.5 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out).at("init_components_removed") == 1);
+  CHECK(Json::parse(r.out).at("vertices") == 8);
+  CHECK(r.err.find("1 small components dropped") != std::string::npos);
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --init " + init + " --iters 2 --init-keep-fraction 0 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out).at("init_components_removed") == 0);
+  CHECK(Json::parse(r.out).at("vertices") == 12);
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --init " + init + " --init-keep-fraction 2");
+  CHECK(r.code != 0);
+  CHECK(r.err.find("--init-keep-fraction") != std::string::npos);
+  fs::remove_all(dir);
+}
