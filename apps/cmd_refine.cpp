@@ -32,7 +32,7 @@ std::string beside(const std::string& mesh, const std::string& suffix) {
 std::function<int()> setup_refine(CLI::App& app) {
   struct Opts {
     std::string views, out, init = "sphere", names, subdivide;
-    double init_keep_fraction = 0.05;
+    double init_keep_fraction = kRefineKeepFraction;
     RefineSettings s;
     int sphere_level = 4;
     double sphere_radius = 1.0;

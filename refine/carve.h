@@ -16,13 +16,18 @@
 
 namespace sdfkit {
 
+/// The smallest component a refinement keeps, as a fraction of the largest component's faces: carve's result and
+/// `refine --init MESH`'s starting mesh drop the pieces under it (extract/cleanup.h). recon keeps smaller ones
+/// (kDefaultKeepFraction), but a piece of a few pixels gets silhouette gradients it cannot follow.
+inline constexpr double kRefineKeepFraction = 0.05;
+
 struct CarveSettings {
   int resolution = 129;      ///< grid points per axis over the box
   double threshold = 0.5;    ///< a point is inside a silhouette where the view's alpha is >= this, (0, 1)
   Vec3 box_min = Vec3::Constant(-1.05);  ///< the sampled cube (the unit sphere's box padded by 5%)
   double box_size = 2.1;
   /// Components under this fraction of the largest's faces are dropped (extract/cleanup.h); 0 keeps all.
-  double min_component_fraction = 0.05;
+  double min_component_fraction = kRefineKeepFraction;
 };
 
 struct CarveReport {
