@@ -24,6 +24,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     std::string pose_tta = "mirror";
     double symmetry_tol = 0.01;
     double flip_check = kDefaultFlipCheck;
+    double mirror_agree = kMirrorAgreeDeg;
   };
   auto o = std::make_shared<Opts>();
   app.add_option("--model", o->model, "pose model written by `sdfkit train pose`")->required();
@@ -54,6 +55,11 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                  "pose mirror TTA), as recon does by default; none: one reading")
       ->capture_default_str()
       ->check(CLI::IsMember({"mirror", "none"}));
+  app.add_option("--mirror-agree", o->mirror_agree,
+                 "--pose-tta mirror: the two readings are averaged when their rotations are at most this many degrees "
+                 "apart, else the one the azimuth head supports is kept")
+      ->capture_default_str()
+      ->check(in_range(0.0, 180.0));
   app.add_option("--zoom", o->e.zoom,
                  "magnify every view by this factor about its centre and divide the true camera distance by it "
                  "(less where the object would leave the frame): how well the model reads the distance from the "
@@ -66,11 +72,14 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                "crop): how well the model reads recon's reframed inputs (a model without --centre-head answers with "
                "the image centre)");
   app.add_flag("--json", o->json, "print JSON (overall + per category) instead of text");
-  return [o] {
+  return [o, &app] {
+    if (o->pose_tta != "mirror" && app.get_option("--mirror-agree")->count() > 0)
+      throw InvalidInput("--mirror-agree applies with --pose-tta mirror");
     const auto t0 = std::chrono::steady_clock::now();
     auto net = load_pose_model(o->model);
     net->set_flip_check(o->flip_check);
     net->set_mirror_tta(o->pose_tta == "mirror");
+    net->set_mirror_agree(o->mirror_agree);
     DatasetSettings ds;
     ds.root = o->data;
     ds.split = o->split;
@@ -110,6 +119,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       Json j = scores(all);
       j.update({{"model", o->model}, {"data", o->data}, {"split", o->split}, {"shapes", data.size()},
                 {"azimuth_bins", net->settings().azimuth_bins}, {"flip_check", o->flip_check}, {"pose_tta", o->pose_tta},
+                {"mirror_agree_deg", o->mirror_agree},
                 {"points", o->e.points}, {"zoom", o->e.zoom}, {"reframe", o->e.reframe}, {"seconds", seconds}, {"per_category", cats}});
       if (o->symmetry) {
         j["symmetry_tol"] = o->symmetry_tol;

@@ -98,6 +98,12 @@ void PoseNet::set_flip_check(double margin) {
   flip_check_ = margin;
 }
 
+void PoseNet::set_mirror_agree(double degrees) {
+  require(std::isfinite(degrees) && degrees >= 0 && degrees <= 180,
+          "pose net: the mirror TTA's agreement angle must be in [0, 180] degrees");
+  mirror_agree_deg_ = degrees;
+}
+
 double PoseNet::train_step_flops(int batch) const {
   const Shape in{batch, 3, s_.image_size, s_.image_size};
   const Shape feat = trunk_.output_shape(in);
@@ -218,7 +224,7 @@ PosePrediction PoseNet::predict(const MatrixXfR& images) {
       p.mirror_angle.push_back(angle);
       // Without the azimuth head nothing tells the readings apart: they are always averaged, except when exactly
       // opposite (their sum is singular, no mean exists; a half turn apart is 2 cos(angle / 2) from singular).
-      if (angle <= kMirrorAgreeDeg || (K == 0 && angle < 179.9)) {
+      if (angle <= mirror_agree_deg_ || (K == 0 && angle < 179.9)) {
         cam.R = nearest_rotation(cam.R + other.R);
         cam.t = 0.5 * (cam.t + other.t);
         cam.K = 0.5 * (cam.K + other.K);

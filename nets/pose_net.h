@@ -108,6 +108,10 @@ class PoseNet {
   /// check runs on them. Costs a second forward pass.
   void set_mirror_tta(bool on) { mirror_tta_ = on; }
   [[nodiscard]] bool mirror_tta() const { return mirror_tta_; }
+  /// The mirror TTA's agreement angle (default kMirrorAgreeDeg): readings at most this many degrees apart are
+  /// averaged. InvalidInput outside [0, 180].
+  void set_mirror_agree(double degrees);
+  [[nodiscard]] double mirror_agree() const { return mirror_agree_deg_; }
 
   /// One training forward + backward: returns the batch's L_cam and ADDS the gradients of weight x L_cam to the
   /// parameter gradients (call params().zero_grad() first). points[b] are item b's object-frame points. Data-
@@ -149,6 +153,7 @@ class PoseNet {
   Tensor x_, feat_, rot_, dist_, az_, centre_;
   double flip_check_ = kDefaultFlipCheck;
   bool mirror_tta_ = false;
+  double mirror_agree_deg_ = kMirrorAgreeDeg;
 };
 
 /// L_cam of one item and its gradient wrt (R_pred, d_pred); exposed for tests.

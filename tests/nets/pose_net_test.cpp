@@ -10,6 +10,7 @@
 
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <unistd.h>
 
@@ -549,4 +550,29 @@ TEST_CASE("pose net mirror TTA: equivariant to flipping the input, the midpoint 
               doctest::Approx(tta.mirror_angle[b] / 2).epsilon(1e-3));
     }
   }
+}
+
+TEST_CASE("pose net mirror TTA agreement angle: 180 averages every pair, 0 keeps one reading, bad angles refused") {
+  PoseNet net(tiny_with_head(12), false);
+  net.init(5);
+  const MatrixXfR img = MatrixXfR::Random(6, 3 * 40 * 40).array() * 0.5f + 0.5f;
+  net.set_flip_check(0);
+  const PosePrediction plain = net.predict(img);
+  net.set_mirror_tta(true);
+  CHECK(net.mirror_agree() == kMirrorAgreeDeg);
+  net.set_mirror_agree(180);
+  const PosePrediction all = net.predict(img);
+  net.set_mirror_agree(0);
+  const PosePrediction none = net.predict(img);
+  for (int b = 0; b < 6; ++b) {
+    CAPTURE(b);
+    REQUIRE(all.mirror_angle[b] > 1e-3);  // the two readings of a random image differ
+    REQUIRE(all.mirror_angle[b] < 179.0);
+    // 180: always the midpoint; 0: one of the two readings, unchanged.
+    CHECK(rotation_angle_deg(all.regressed[b].R, plain.regressed[b].R) ==
+          doctest::Approx(all.mirror_angle[b] / 2).epsilon(1e-3));
+    const double to_plain = rotation_angle_deg(none.regressed[b].R, plain.regressed[b].R);
+    CHECK((to_plain < 1e-3 || std::abs(to_plain - none.mirror_angle[b]) < 1e-3));
+  }
+  for (const double bad : {-1.0, 180.5, std::nan("")}) CHECK_THROWS_AS(net.set_mirror_agree(bad), InvalidInput);
 }
