@@ -16,6 +16,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <tuple>
 #include <filesystem>
 #include <iostream>
@@ -85,6 +86,51 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
     if (mask && given(f)) throw InvalidInput(std::string(f) + " does not apply with --mask (the mask gives the object)");
 }
 
+/// --fuse: one mesh from several views; the flags that do not apply are errors.
+void check_fuse_flags(const CLI::App& app, size_t images, bool mesh_out, const std::string& out, const std::string& cam) {
+  if (images < 2) throw InvalidInput("--fuse needs two or more views of the object (a folder or a list of images)");
+  if (!mesh_out)
+    throw InvalidInput("-o " + out + ": --fuse writes one mesh; give a path ending in .obj, .ply, .off or .stl");
+  if (cam != "est" && cam != "sidecar")
+    throw InvalidInput("--fuse: every view needs its own camera: --cam sidecar (each image's <name>.json) or est");
+  for (const char* f : {"--mask", "--missing", "--occlude", "--box", "--jobs", "--refine-camera", "--refine-rounds"})
+    if (app.get_option(f)->count() > 0) throw InvalidInput(std::string(f) + " does not apply with --fuse");
+}
+
+/// --fuse: Reconstructor::run_views over every input, one mesh, its preview and mask (the first view's).
+int fuse_views(const Reconstructor& rec, const std::vector<std::string>& inputs, bool sidecar,
+               const ReconSettings& settings, const std::string& mesh_path, bool json) {
+  std::vector<Image> images;
+  std::vector<Camera> cams(inputs.size());
+  std::vector<const Camera*> cam_ptrs(inputs.size(), nullptr);
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    images.push_back(read_image(inputs[i]));
+    if (sidecar) {
+      const fs::path p(inputs[i]);
+      cams[i] = read_camera((p.parent_path() / (p.stem().string() + ".json")).string());
+      cam_ptrs[i] = &cams[i];
+    }
+  }
+  const ReconResult r = rec.run_views(images, cam_ptrs, settings, inputs);
+  for (const std::string& w : r.framing.warnings) std::fprintf(stderr, "sdfkit: warning: %s: %s\n", inputs[0].c_str(), w.c_str());
+  const fs::path base = fs::path(mesh_path).parent_path() / fs::path(mesh_path).stem();
+  const std::string preview_path = base.string() + ".preview.png", mask_path = base.string() + ".mask.png";
+  write_mesh(mesh_path, r.mesh);
+  if (settings.preview) {
+    write_image(preview_path, r.preview);
+    write_image(mask_path, r.framing.mask);
+  }
+  if (json) {
+    ReconOutputPaths paths{inputs[0], mesh_path, preview_path, mask_path, inputs};
+    std::cout << recon_result_json(r, settings, paths, images[0].width, images[0].height).dump(2) << '\n';
+  } else {
+    std::printf("%zu views -> %s (%ld faces, %ld evaluations, %g s%s)\n", inputs.size(), mesh_path.c_str(),
+                static_cast<long>(r.mesh.num_faces()), r.evaluations, r.timings.total,
+                settings.preview ? (", preview " + preview_path).c_str() : "");
+  }
+  return int(kOk);
+}
+
 std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
     std::string input, out, model, pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto",
@@ -97,6 +143,7 @@ std::function<int()> setup_recon(CLI::App& app) {
     bool refine = false;
     std::string missing, occlude = "none";
     uint64_t occlude_seed = 1;
+    bool fuse = false;
   };
   auto o = std::make_shared<Opts>();
   o->model = default_model_path("sdf.ckpt");
@@ -228,6 +275,9 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "local search bound of the camera distance: ratio within [1/(1+c), 1+c]")
       ->capture_default_str()
       ->check(in_range(0.01, 1.0));
+  app.add_flag("--fuse", o->fuse,
+               "multi-view: the images (a folder or list) are views of one object; one mesh (-o MESH) from the mean "
+               "of their fields, each view through its own camera (--cam sidecar, or est: each view's estimate)");
   app.add_flag("--no-preview", o->no_preview, "do not write the preview PNG nor <name>.mask.png");
   app.add_option("-j,--jobs", o->jobs, "images reconstructed in parallel (each also uses the worker threads)")
       ->capture_default_str()
@@ -237,15 +287,16 @@ std::function<int()> setup_recon(CLI::App& app) {
     const std::vector<std::string> inputs = collect_inputs(o->input);
     const bool many = fs::is_directory(o->input) || inputs.size() > 1 || !is_image_path(o->input);
     const bool mesh_out = is_mesh_out_path(o->out);
+    if (o->fuse) check_fuse_flags(app, inputs.size(), mesh_out, o->out, o->cam);
     if (!many && !mesh_out)
       throw InvalidInput("-o " + o->out + ": give a mesh path ending in .obj, .ply, .off or .stl for one image");
-    if (many && mesh_out)
+    if (many && mesh_out && !o->fuse)
       throw InvalidInput("-o " + o->out + ": " + o->input + " holds " + std::to_string(inputs.size()) +
                          " images; give a folder for their meshes");
-    if (many && fs::exists(o->out) && !fs::is_directory(o->out))
+    if (many && !o->fuse && fs::exists(o->out) && !fs::is_directory(o->out))
       throw InvalidInput("-o " + o->out + ": exists and is not a folder");
     if (!many && fs::is_directory(o->out)) throw InvalidInput("-o " + o->out + ": is a folder, not a mesh path");
-    if (!many && format_opt->count() > 0)
+    if ((!many || o->fuse) && format_opt->count() > 0)
       throw InvalidInput("--format applies to a folder or list of images; for one image the extension of -o chooses");
     if (!o->box.empty() && many) throw InvalidInput("--box applies to a single input image");
     if (!o->mask.empty() && many) throw InvalidInput("--mask applies to a single input image");
@@ -289,6 +340,8 @@ std::function<int()> setup_recon(CLI::App& app) {
     Image mask, missing;
     if (!o->mask.empty()) mask = read_image(o->mask);
     if (!o->missing.empty()) missing = read_image(o->missing);
+
+    if (o->fuse) return fuse_views(*rec, inputs, o->cam == "sidecar", o->s, o->out, o->json);
 
     // Output paths, fixed before any work: two inputs with one stem (a.png and a.jpg in a folder, or the same
     // name in two listed folders) would write the same mesh; the later input fails as an item instead.
@@ -344,7 +397,7 @@ std::function<int()> setup_recon(CLI::App& app) {
           write_image(preview_path, r.preview);
           write_image(mask_path, r.framing.mask);
         }
-        j = recon_result_json(r, o->s, {in, mesh_path, preview_path, mask_path}, img.width, img.height);
+        j = recon_result_json(r, o->s, {in, mesh_path, preview_path, mask_path, {}}, img.width, img.height);
         if (!o->json) {
           std::ostringstream line;
           line << in << " -> " << mesh_path << " (" << r.mesh.num_faces() << " faces, " << r.evaluations

@@ -54,10 +54,9 @@ Eigen::VectorXf flip_network_input(const Eigen::VectorXf& input, int size) {
   const Eigen::Index plane = static_cast<Eigen::Index>(size) * size;
   require(size > 0 && input.size() > 0 && input.size() % plane == 0,
           "flip_network_input: input is not C x " + std::to_string(size) + " x " + std::to_string(size));
-  Eigen::VectorXf out(input.size());
-  for (Eigen::Index row = 0; row < input.size() / size; ++row)
-    out.segment(row * size, size) = input.segment(row * size, size).reverse();
-  return out;
+  // One row of a batch, flipped as the pose network flips its batches (nets/pose_net.h flip_images).
+  const MatrixXfR flipped = flip_images(Eigen::Map<const MatrixXfR>(input.data(), 1, input.size()), size);
+  return Eigen::Map<const Eigen::VectorXf>(flipped.data(), flipped.size());
 }
 
 Image input_foreground(const Eigen::VectorXf& input) {
@@ -102,6 +101,42 @@ struct Reconstructor::MeshStats {
   double encode = 0, field = 0, extract = 0, cleanup = 0;
 };
 
+namespace {
+
+/// A given camera of `image` (a camera of another image size is scaled to the image's size first) as a camera of
+/// the network image `framed` made of it.
+Camera given_network_camera(const Camera& camera, const Image& image, const FramedInput& framed,
+                            const std::string& what) {
+  validate_camera(camera, what + ": camera");
+  Camera in = camera;
+  if (in.width != image.width || in.height != image.height) {
+    in.K.row(0) *= static_cast<double>(image.width) / in.width;
+    in.K.row(1) *= static_cast<double>(image.height) / in.height;
+    in.width = image.width;
+    in.height = image.height;
+  }
+  return camera_in_network(in, framed);
+}
+
+/// The settings' checks every reconstruction makes before any work.
+void check_settings(const ReconSettings& settings, const std::string& what) {
+  require(settings.refine_rounds >= 0, what + ": refinement rounds must be >= 0");
+  const int refine_res = std::min(settings.refine_resolution, settings.resolution);
+  for (const int res : {settings.resolution, settings.refine_rounds > 0 ? refine_res : settings.resolution}) {
+    require(res >= 3 && settings.coarse_resolution >= 2, what + ": resolution too small");
+    require(settings.dense || ((res - 1) % (settings.coarse_resolution - 1) == 0 &&
+                               power_of_two((res - 1) / (settings.coarse_resolution - 1))),
+            what + ": (resolution - 1) / (coarse resolution - 1) must be a power of two, e.g. 65, 129, 257 with 17");
+  }
+  require(settings.safety == 0 || settings.safety >= 1.0, what + ": safety factor must be >= 1 (or 0: the model's default)");
+  require((settings.pose_distance_min == 0 && settings.pose_distance_max == 0) ||
+              (settings.pose_distance_min > 0 && settings.pose_distance_min <= settings.pose_distance_max &&
+               std::isfinite(settings.pose_distance_max)),
+          what + ": the pose distance range must be 0 < min <= max (or both 0: off)");
+}
+
+}  // namespace
+
 ReconResult Reconstructor::run(const Image& image, const Image* mask, const Camera* camera,
                                const ReconSettings& settings, const std::string& what, const Image* missing) const {
   const auto t0 = Clock::now();
@@ -141,17 +176,7 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
     }
   }
   Camera network_camera;
-  if (camera != nullptr) {
-    validate_camera(*camera, what + ": camera");
-    Camera in = *camera;
-    if (in.width != image.width || in.height != image.height) {
-      in.K.row(0) *= static_cast<double>(image.width) / in.width;
-      in.K.row(1) *= static_cast<double>(image.height) / in.height;
-      in.width = image.width;
-      in.height = image.height;
-    }
-    network_camera = camera_in_network(in, framed);
-  }
+  if (camera != nullptr) network_camera = given_network_camera(*camera, image, framed, what);
   const double prep = since(t0);
   ReconResult r = run_input(input, camera != nullptr ? &network_camera : nullptr, settings, what,
                             settings.refine_rounds > 0 ? &silhouette : nullptr);
@@ -189,33 +214,53 @@ double Reconstructor::surface_level(const ReconSettings& settings) const {
 
 Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings,
                                 int resolution, const std::string& what, MeshStats& stats) const {
+  return reconstruct({{&input, camera}}, settings, resolution, what, stats);
+}
+
+Mesh Reconstructor::reconstruct(const std::vector<ViewRef>& views, const ReconSettings& settings, int resolution,
+                                const std::string& what, MeshStats& stats) const {
+  require(!views.empty(), what + ": no views to reconstruct from");
   auto t = Clock::now();
-  // RGB (3 x 137 x 137) or RGB + missing-data mask (4 x ...), as the SDF network reads it (nets/dataset.h).
+  // Per view: RGB (3 x 137 x 137) or RGB + missing-data mask (4 x ...), as the SDF network reads it
+  // (nets/dataset.h), encoded once; with the mirror TTA also the flipped input through the mirrored camera.
   const Eigen::Index n = kNetImageSize * kNetImageSize;
-  Eigen::VectorXf mask;
-  if (input.size() == 4 * n) mask = input.tail(n);
-  const Eigen::VectorXf net_input =
-      network_input(input.head(3 * n), mask.size() ? &mask : nullptr, sdf_->config().input_channels);
-  const SdfNet::ShapeCode code = sdf_->encode(net_input.data(), camera);
-  std::unique_ptr<SdfNet::ShapeCode> mirrored;
-  if (settings.mirror_tta) {
-    const Eigen::VectorXf flipped = flip_network_input(net_input, kNetImageSize);
-    mirrored = std::make_unique<SdfNet::ShapeCode>(sdf_->encode(flipped.data(), mirror_camera(camera)));
+  std::vector<SdfNet::ShapeCode> codes, mirrored;
+  for (const ViewRef& v : views) {
+    const Eigen::VectorXf& input = *v.input;
+    Eigen::VectorXf mask;
+    if (input.size() == 4 * n) mask = input.tail(n);
+    const Eigen::VectorXf net_input =
+        network_input(input.head(3 * n), mask.size() ? &mask : nullptr, sdf_->config().input_channels);
+    codes.push_back(sdf_->encode(net_input.data(), v.camera));
+    if (settings.mirror_tta) {
+      const Eigen::VectorXf flipped = flip_network_input(net_input, kNetImageSize);
+      mirrored.push_back(sdf_->encode(flipped.data(), mirror_camera(v.camera)));
+    }
   }
   stats.encode = since(t);
 
   double field_seconds = 0;
+  // The mean of the views' fields (for a binary model, of their logits: the occupancy whose odds are the geometric
+  // mean of the views' odds). The mirrored input describes the mirrored object: its field at (-x, y, z) is the
+  // object's at (x, y, z).
   const BatchField field = [&](const Points& p, Eigen::VectorXd& values) {
     const auto tf = Clock::now();
-    sdf_->field(code, p, values);
-    if (mirrored) {
-      // The mirrored input describes the mirrored object: its field at (-x, y, z) is the object's at (x, y, z).
-      Points q = p;
+    Points q;
+    if (!mirrored.empty()) {
+      q = p;
       q.col(0) = -q.col(0);
-      Eigen::VectorXd other;
-      sdf_->field(*mirrored, q, other);
-      values = 0.5 * (values + other);
     }
+    Eigen::VectorXd one;
+    values.setZero(p.rows());
+    for (size_t v = 0; v < codes.size(); ++v) {
+      sdf_->field(codes[v], p, one);
+      values += one;
+      if (!mirrored.empty()) {
+        sdf_->field(mirrored[v], q, one);
+        values += one;
+      }
+    }
+    values /= static_cast<double>(codes.size() * (mirrored.empty() ? 1 : 2));
     field_seconds += since(tf);
   };
   ExtractSettings es;
@@ -253,19 +298,8 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
   // The pose network, the silhouette and the preview read the RGB channels; the SDF network reads the mask too when it
   // has the channel (reconstruct()).
   const Eigen::VectorXf input = full_input.head(3 * kPixels);
-  require(settings.refine_rounds >= 0, what + ": refinement rounds must be >= 0");
+  check_settings(settings, what);
   const int refine_res = std::min(settings.refine_resolution, settings.resolution);
-  for (const int res : {settings.resolution, settings.refine_rounds > 0 ? refine_res : settings.resolution}) {
-    require(res >= 3 && settings.coarse_resolution >= 2, what + ": resolution too small");
-    require(settings.dense || ((res - 1) % (settings.coarse_resolution - 1) == 0 &&
-                               power_of_two((res - 1) / (settings.coarse_resolution - 1))),
-            what + ": (resolution - 1) / (coarse resolution - 1) must be a power of two, e.g. 65, 129, 257 with 17");
-  }
-  require(settings.safety == 0 || settings.safety >= 1.0, what + ": safety factor must be >= 1 (or 0: the model's default)");
-  require((settings.pose_distance_min == 0 && settings.pose_distance_max == 0) ||
-              (settings.pose_distance_min > 0 && settings.pose_distance_min <= settings.pose_distance_max &&
-               std::isfinite(settings.pose_distance_max)),
-          what + ": the pose distance range must be 0 < min <= max (or both 0: off)");
   ReconResult r;
   const auto t_all = Clock::now();
   auto t = Clock::now();
@@ -337,6 +371,67 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
     r.preview = recon_preview(input, r.mesh, r.camera, settings.preview_size);
     r.timings.preview = since(t);
   }
+  r.timings.total = since(t_all);
+  return r;
+}
+
+ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std::vector<const Camera*>& cameras,
+                                     const ReconSettings& settings, const std::vector<std::string>& what) const {
+  require(!images.empty() && cameras.size() == images.size() && what.size() == images.size(),
+          "run_views: one camera (or null) and one name per image");
+  check_settings(settings, what[0]);
+  if (settings.refine_rounds > 0)
+    throw InvalidInput(what[0] + ": camera refinement aligns one view; it does not apply to a multi-view "
+                                 "reconstruction");
+  const auto t_all = Clock::now();
+  ReconResult r;
+  std::vector<Eigen::VectorXf> inputs(images.size());
+  std::vector<FramedInput> framed(images.size());
+  for (size_t i = 0; i < images.size(); ++i) {
+    auto t = Clock::now();
+    framed[i] = frame_input(images[i], nullptr, settings.framing, what[i]);
+    inputs[i] = network_image(framed[i].image);
+    Camera cam;
+    if (cameras[i] != nullptr) {
+      cam = given_network_camera(*cameras[i], images[i], framed[i], what[i]);
+      r.timings.prepare += since(t);
+    } else {
+      r.timings.prepare += since(t);
+      t = Clock::now();
+      double turn = 0;
+      cam = estimate_camera(inputs[i], settings.flip_check, &turn, settings.pose_mirror_tta);
+      if (settings.pose_distance_max > 0)
+        cam = distance_as_focal(cam, settings.pose_distance_min, settings.pose_distance_max);
+      r.timings.pose += since(t);
+      if (i == 0) r.flip_turn_deg = turn;
+    }
+    r.view_cameras.push_back(cam);
+    r.view_input_cameras.push_back(camera_in_input(cam, framed[i], images[i].width, images[i].height));
+    r.view_estimated.push_back(cameras[i] == nullptr);
+  }
+  std::vector<ViewRef> views;
+  for (size_t i = 0; i < images.size(); ++i) views.push_back({&inputs[i], r.view_cameras[i]});
+  MeshStats st;
+  r.mesh = reconstruct(views, settings, settings.resolution, what[0], st);
+  r.camera = r.initial_camera = r.view_cameras[0];
+  r.input_camera = r.view_input_cameras[0];
+  r.camera_estimated = r.view_estimated[0];
+  r.pose_mirror_tta = r.camera_estimated && settings.pose_mirror_tta;
+  r.evaluations = st.evaluations;
+  r.components_removed = st.components_removed;
+  r.dense = settings.dense;
+  r.threshold = occupancy_threshold(settings);
+  r.mirror_tta = settings.mirror_tta;
+  r.timings.encode = st.encode;
+  r.timings.field = st.field;
+  r.timings.extract = st.extract;
+  r.timings.cleanup = st.cleanup;
+  if (settings.preview) {
+    const auto t = Clock::now();
+    r.preview = recon_preview(inputs[0], r.mesh, r.camera, settings.preview_size);
+    r.timings.preview = since(t);
+  }
+  r.framing = std::move(framed[0]);
   r.timings.total = since(t_all);
   return r;
 }

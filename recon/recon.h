@@ -124,6 +124,10 @@ struct ReconResult {
   bool dense = false;           ///< the full grid was evaluated (ReconSettings::dense)
   double threshold = 0;         ///< occupancy threshold of a binary-variant model (0: an SDF model, level 0)
   bool mirror_tta = false;      ///< the field averaged with the mirrored input's (ReconSettings::mirror_tta)
+  /// run_views: every view's network camera (given or estimated), in the order of the images; empty for one view
+  std::vector<Camera> view_cameras;
+  std::vector<Camera> view_input_cameras;  ///< the same as cameras of each input image
+  std::vector<bool> view_estimated;        ///< whether each view's camera was estimated
   ReconTimings timings;
   Image preview;                ///< RGB, 4 panels side by side (empty when settings.preview is false)
 };
@@ -167,6 +171,13 @@ class Reconstructor {
   /// the mask camera refinement aligns to; null = input_foreground(input).
   ReconResult run_input(const Eigen::VectorXf& input, const Camera* camera, const ReconSettings& settings,
                         const std::string& what, const Image* silhouette = nullptr) const;
+  /// Multi-view reconstruction (DISN's multi-view application): several images of one object, each framed as run()
+  /// frames one, each with its camera (`cameras[i]`, a camera of image i; null = estimated by the pose network, whose
+  /// cameras all refer to the canonical object frame), and one mesh extracted from the mean of the views' fields
+  /// (for a binary model, of their logits). The result's camera, framing and preview are those of the first view;
+  /// view_cameras holds every view's network camera. Camera refinement is refused (it aligns one view).
+  ReconResult run_views(const std::vector<Image>& images, const std::vector<const Camera*>& cameras,
+                        const ReconSettings& settings, const std::vector<std::string>& what) const;
   /// Camera estimate of a network input (InvalidInput when no pose network is loaded), with the pose model's flip
   /// check at `flip_check` (ReconSettings::flip_check) and its mirror TTA when `mirror_tta`
   /// (ReconSettings::pose_mirror_tta); *flip_turn_deg (may be null) gets the check's turn.
@@ -175,7 +186,14 @@ class Reconstructor {
 
  private:
   struct MeshStats;
+  struct ViewRef {
+    const Eigen::VectorXf* input;  ///< network input (3 or 4 x 137 x 137)
+    Camera camera;                 ///< its camera of the 137 px network image
+  };
   Mesh reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings, int resolution,
+                   const std::string& what, MeshStats& stats) const;
+  /// The mesh of the mean of the views' fields.
+  Mesh reconstruct(const std::vector<ViewRef>& views, const ReconSettings& settings, int resolution,
                    const std::string& what, MeshStats& stats) const;
   std::unique_ptr<SdfNet> sdf_;
   std::unique_ptr<PoseNet> pose_;

@@ -1,5 +1,6 @@
 #include "recon/recon_json.h"
 
+#include "core/error.h"
 #include "core/json.h"
 
 namespace sdfkit {
@@ -40,6 +41,16 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
     j["camera_refinement"] = {
         {"initial_camera", camera_to_json(camera_in_input(r.initial_camera, fr, image_width, image_height))},
         {"rounds", rounds}};
+  }
+  if (!r.view_cameras.empty()) {
+    require(paths.views.size() == r.view_cameras.size(), "recon_result_json: one image name per view");
+    Json views = Json::array();
+    for (size_t i = 0; i < r.view_cameras.size(); ++i)
+      views.push_back({{"input", paths.views[i]},
+                       {"camera", camera_to_json(r.view_input_cameras[i])},
+                       {"network_camera", camera_to_json(r.view_cameras[i])},
+                       {"camera_source", r.view_estimated[i] ? "estimated" : "given"}});
+    j["views"] = views;
   }
   j["evaluations"] = r.evaluations;
   j["vertices"] = r.mesh.num_vertices();

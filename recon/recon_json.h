@@ -7,6 +7,7 @@
 #include "recon/recon.h"
 
 #include <string>
+#include <vector>
 
 namespace sdfkit {
 
@@ -16,10 +17,11 @@ struct ReconOutputPaths {
   std::string mesh;     ///< the mesh written
   std::string preview;  ///< the preview PNG (named only when settings.preview)
   std::string mask;     ///< the object mask PNG (written with the preview)
+  std::vector<std::string> views;  ///< a multi-view reconstruction's images (Reconstructor::run_views), in order
 };
 
 /// The record of `result`, what Reconstructor::run returned for an image of image_width x image_height with
-/// `settings`. The refinement's initial camera is given as a camera of the input image (camera_in_input).
+/// `settings` (for run_views: the first image's size; the record adds "views", one camera record per image). The refinement's initial camera is given as a camera of the input image (camera_in_input).
 Json recon_result_json(const ReconResult& result, const ReconSettings& settings, const ReconOutputPaths& paths,
                        int image_width, int image_height);
 

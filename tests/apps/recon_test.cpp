@@ -330,6 +330,47 @@ TEST_CASE("recon outputs: the format follows -o, a folder only for a folder inpu
   CHECK(fs::is_regular_file(dir / "outdir" / "a.stl"));
 }
 
+// Multi-view reconstruction (`recon --fuse`): four rendered views of an example's ground truth with their cameras
+// give one closed mesh close to it; the flags that do not apply are refused.
+TEST_CASE("recon --fuse: views of one object with their cameras give one mesh, inapplicable flags refused") {
+  REQUIRE(have_models());
+  const fs::path dir = test::scratch_dir("recon_cli") / "fuse";
+  fs::remove_all(dir);
+  const std::string views = (dir / "views").string(), gt = (dir / "gt.ply").string();
+  Run r = run("render " + kSource + "/data/examples/gt/car_0021.ply -o " + views + " --views 4 --seed 3 --mesh-out " + gt);
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const std::string fused = (dir / "fused.obj").string(), one = (dir / "one.obj").string();
+  r = run("recon " + views + " -o " + fused + " --fuse --cam sidecar --res 33 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const Json j = Json::parse(r.out);
+  REQUIRE(j.at("views").size() == 4);
+  for (const Json& v : j.at("views")) CHECK(v.at("camera_source") == "given");
+  CHECK(j.at("views")[1].at("input").get<std::string>().find("01.png") != std::string::npos);
+  CHECK(fs::exists(dir / "fused.preview.png"));
+  CHECK(is_closed_oriented(read_mesh(fused)));
+  r = run("recon " + views + "/00.png -o " + one + " --cam sidecar --res 33 --no-preview");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const double iou_fused = iou_of(fused, gt), iou_one = iou_of(one, gt);
+  MESSAGE("IoU: view 00 alone " << iou_one << ", four views fused " << iou_fused);
+  CHECK(iou_fused > 0.5);
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"recon " + views + "/00.png -o " + (dir / "a.obj").string() + " --fuse --cam sidecar", "two or more views"},
+      {"recon " + views + " -o " + (dir / "outdir").string() + " --fuse --cam sidecar", "writes one mesh"},
+      {"recon " + views + " -o " + (dir / "b.obj").string() + " --fuse --cam " + views + "/00.json", "its own camera"},
+      {"recon " + views + " -o " + (dir / "c.obj").string() + " --fuse --cam sidecar --jobs 2", "--jobs does not apply"},
+      {"recon " + views + " -o " + (dir / "d.obj").string() + " --fuse --cam sidecar --refine-camera",
+       "--refine-camera does not apply"},
+      {"recon " + views + " -o " + (dir / "e.obj").string() + " --fuse --cam sidecar --format ply", "--format applies"},
+  };
+  for (const auto& [cmd, message] : bad) {
+    CAPTURE(cmd);
+    const Run b = run(cmd);
+    CHECK(b.code == 1);
+    CHECK(b.err.find(message) != std::string::npos);
+  }
+  CHECK(!fs::exists(dir / "outdir"));
+}
+
 // Issue 19: an installed sdfkit finds its models next to itself; SDFKIT_MODEL_DIR overrides that; no model folder
 // at all is a one-line error that says what to do.
 TEST_CASE("cmake --install: the installed sdfkit finds the shipped models, SDFKIT_MODEL_DIR overrides them") {

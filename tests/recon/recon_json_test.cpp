@@ -63,7 +63,7 @@ TEST_CASE("recon_result_json: every key of the recon record, cameras that read b
   r.mirror_tta = true;
   ReconSettings s;
   s.resolution = 65;
-  const Json j = recon_result_json(r, s, {"in.png", "out/in.obj", "out/in.preview.png", "out/in.mask.png"}, 400, 300);
+  const Json j = recon_result_json(r, s, {"in.png", "out/in.obj", "out/in.preview.png", "out/in.mask.png", {}}, 400, 300);
   for (const char* key : {"input", "mesh", "preview", "mask", "framing", "warnings", "camera", "network_camera",
                           "camera_source", "flip_turn_deg", "pose_tta", "camera_refinement", "evaluations", "vertices", "faces",
                           "components_removed", "resolution", "extraction", "threshold", "mirror_tta", "seconds"})
@@ -120,7 +120,7 @@ TEST_CASE("recon_result_json: a given camera, no refinement, no preview and the 
   s.preview = false;
   r.dense = true;  // the result says which extraction ran
   r.threshold = 0;  // an SDF model: no occupancy threshold
-  const Json j = recon_result_json(r, s, {"in.png", "in.obj", "unused.preview.png", "unused.mask.png"}, 400, 300);
+  const Json j = recon_result_json(r, s, {"in.png", "in.obj", "unused.preview.png", "unused.mask.png", {}}, 400, 300);
   CHECK(j["camera_source"] == "given");
   CHECK(j["extraction"] == "dense");
   CHECK(j["mirror_tta"] == false);
