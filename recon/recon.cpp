@@ -356,6 +356,13 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
 
   MeshStats st;
   r.mesh = reconstruct(full_input, r.camera, settings, settings.resolution, what, st);
+  finish_result(r, st, settings, input);
+  r.timings.total = since(t_all);
+  return r;
+}
+
+void Reconstructor::finish_result(ReconResult& r, const MeshStats& st, const ReconSettings& settings,
+                                  const Eigen::VectorXf& preview_input) const {
   r.evaluations += st.evaluations;
   r.components_removed = st.components_removed;
   r.dense = settings.dense;
@@ -365,14 +372,11 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
   r.timings.field = st.field;
   r.timings.extract = st.extract;
   r.timings.cleanup = st.cleanup;
-
   if (settings.preview) {
-    t = Clock::now();
-    r.preview = recon_preview(input, r.mesh, r.camera, settings.preview_size);
+    const auto t = Clock::now();
+    r.preview = recon_preview(preview_input, r.mesh, r.camera, settings.preview_size);
     r.timings.preview = since(t);
   }
-  r.timings.total = since(t_all);
-  return r;
 }
 
 ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std::vector<const Camera*>& cameras,
@@ -417,20 +421,7 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
   r.input_camera = r.view_input_cameras[0];
   r.camera_estimated = r.view_estimated[0];
   r.pose_mirror_tta = r.camera_estimated && settings.pose_mirror_tta;
-  r.evaluations = st.evaluations;
-  r.components_removed = st.components_removed;
-  r.dense = settings.dense;
-  r.threshold = occupancy_threshold(settings);
-  r.mirror_tta = settings.mirror_tta;
-  r.timings.encode = st.encode;
-  r.timings.field = st.field;
-  r.timings.extract = st.extract;
-  r.timings.cleanup = st.cleanup;
-  if (settings.preview) {
-    const auto t = Clock::now();
-    r.preview = recon_preview(inputs[0], r.mesh, r.camera, settings.preview_size);
-    r.timings.preview = since(t);
-  }
+  finish_result(r, st, settings, inputs[0]);
   r.framing = std::move(framed[0]);
   r.timings.total = since(t_all);
   return r;

@@ -192,6 +192,10 @@ class Reconstructor {
   };
   Mesh reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings, int resolution,
                    const std::string& what, MeshStats& stats) const;
+  /// The result's fields every reconstruction fills the same way from the final mesh's stats, and the preview
+  /// (of `preview_input`, 3 x 137 x 137).
+  void finish_result(ReconResult& r, const MeshStats& st, const ReconSettings& settings,
+                     const Eigen::VectorXf& preview_input) const;
   /// The mesh of the mean of the views' fields.
   Mesh reconstruct(const std::vector<ViewRef>& views, const ReconSettings& settings, int resolution,
                    const std::string& what, MeshStats& stats) const;
