@@ -74,6 +74,17 @@ TEST_CASE("dataset lists shapes from a split or from the folder, counts views, r
   split.categories = {"lamp"};
   CHECK(Dataset(split).size() == 1);
 
+  // A repeated line is a repeated entry (the shape comes up that much more often: train_models' stage 5 lists every
+  // table three times), with the same samples.
+  write_text_atomic((root / "twice.lst").string(), "chair/b\nlamp/c\nchair/b\n");
+  split.categories.clear();
+  split.split = (root / "twice.lst").string();
+  const Dataset twice(split);
+  REQUIRE(twice.size() == 3);
+  CHECK(twice.shape(0).id == "chair/b");
+  CHECK(twice.shape(2).id == "chair/b");
+  CHECK(twice.samples(2) == twice.samples(0));
+
   // A listed shape without samples is an error naming it.
   write_text_atomic((root / "bad.lst").string(), "chair/zzz\n");
   split.categories.clear();
