@@ -86,6 +86,26 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
     if (mask && given(f)) throw InvalidInput(std::string(f) + " does not apply with --mask (the mask gives the object)");
 }
 
+/// An image's own camera file (--cam sidecar): <folder>/<stem>.json beside it.
+std::string sidecar_camera_path(const std::string& image) {
+  const fs::path p(image);
+  return (p.parent_path() / (p.stem().string() + ".json")).string();
+}
+
+/// The files of one reconstruction: the mesh, and with the preview <mesh stem>.preview.png and <mesh stem>.mask.png.
+ReconOutputPaths recon_output_paths(const std::string& input, const std::string& mesh_path) {
+  const fs::path base = fs::path(mesh_path).parent_path() / fs::path(mesh_path).stem();
+  return {input, mesh_path, base.string() + ".preview.png", base.string() + ".mask.png", {}};
+}
+
+void write_recon_outputs(const ReconResult& r, const ReconOutputPaths& paths, bool preview) {
+  write_mesh(paths.mesh, r.mesh);
+  if (preview) {
+    write_image(paths.preview, r.preview);
+    write_image(paths.mask, r.framing.mask);
+  }
+}
+
 /// --fuse: one mesh from several views; the flags that do not apply are errors.
 void check_fuse_flags(const CLI::App& app, size_t images, bool mesh_out, const std::string& out, const std::string& cam) {
   if (images < 2) throw InvalidInput("--fuse needs two or more views of the object (a folder or a list of images)");
@@ -106,27 +126,21 @@ int fuse_views(const Reconstructor& rec, const std::vector<std::string>& inputs,
   for (size_t i = 0; i < inputs.size(); ++i) {
     images.push_back(read_image(inputs[i]));
     if (sidecar) {
-      const fs::path p(inputs[i]);
-      cams[i] = read_camera((p.parent_path() / (p.stem().string() + ".json")).string());
+      cams[i] = read_camera(sidecar_camera_path(inputs[i]));
       cam_ptrs[i] = &cams[i];
     }
   }
   const ReconResult r = rec.run_views(images, cam_ptrs, settings, inputs);
   for (const std::string& w : r.framing.warnings) std::fprintf(stderr, "sdfkit: warning: %s: %s\n", inputs[0].c_str(), w.c_str());
-  const fs::path base = fs::path(mesh_path).parent_path() / fs::path(mesh_path).stem();
-  const std::string preview_path = base.string() + ".preview.png", mask_path = base.string() + ".mask.png";
-  write_mesh(mesh_path, r.mesh);
-  if (settings.preview) {
-    write_image(preview_path, r.preview);
-    write_image(mask_path, r.framing.mask);
-  }
+  ReconOutputPaths paths = recon_output_paths(inputs[0], mesh_path);
+  paths.views = inputs;
+  write_recon_outputs(r, paths, settings.preview);
   if (json) {
-    ReconOutputPaths paths{inputs[0], mesh_path, preview_path, mask_path, inputs};
     std::cout << recon_result_json(r, settings, paths, images[0].width, images[0].height).dump(2) << '\n';
   } else {
     std::printf("%zu views -> %s (%ld faces, %ld evaluations, %g s%s)\n", inputs.size(), mesh_path.c_str(),
                 static_cast<long>(r.mesh.num_faces()), r.evaluations, r.timings.total,
-                settings.preview ? (", preview " + preview_path).c_str() : "");
+                settings.preview ? (", preview " + paths.preview).c_str() : "");
   }
   return int(kOk);
 }
@@ -366,8 +380,7 @@ std::function<int()> setup_recon(CLI::App& app) {
         if (!clash[i].empty()) throw InvalidInput(clash[i]);
         const std::string stem = fs::path(in).stem().string();
         const std::string& mesh_path = mesh_paths[i];
-        const fs::path base = fs::path(mesh_path).parent_path() / fs::path(mesh_path).stem();
-        const std::string preview_path = base.string() + ".preview.png", mask_path = base.string() + ".mask.png";
+        const ReconOutputPaths paths = recon_output_paths(in, mesh_path);
         Image img = read_image(in);
         // --occlude: the removed pixels (transparent in img) are the missing data.
         Image occluded;
@@ -385,23 +398,19 @@ std::function<int()> setup_recon(CLI::App& app) {
         Camera cam;
         const Camera* cam_ptr = nullptr;
         if (sidecar) {
-          cam = read_camera((fs::path(in).parent_path() / (stem + ".json")).string());
+          cam = read_camera(sidecar_camera_path(in));
           cam_ptr = &cam;
         } else if (!estimate) {
           cam_ptr = &fixed_camera;
         }
         const ReconResult r = rec->run(img, o->mask.empty() ? nullptr : &mask, cam_ptr, o->s, in, missing_ptr);
         for (const std::string& w : r.framing.warnings) bar.print_line(stderr, "sdfkit: warning: " + in + ": " + w);
-        write_mesh(mesh_path, r.mesh);
-        if (o->s.preview) {
-          write_image(preview_path, r.preview);
-          write_image(mask_path, r.framing.mask);
-        }
-        j = recon_result_json(r, o->s, {in, mesh_path, preview_path, mask_path, {}}, img.width, img.height);
+        write_recon_outputs(r, paths, o->s.preview);
+        j = recon_result_json(r, o->s, paths, img.width, img.height);
         if (!o->json) {
           std::ostringstream line;
           line << in << " -> " << mesh_path << " (" << r.mesh.num_faces() << " faces, " << r.evaluations
-               << " evaluations, " << r.timings.total << " s" << (o->s.preview ? ", preview " + preview_path : "")
+               << " evaluations, " << r.timings.total << " s" << (o->s.preview ? ", preview " + paths.preview : "")
                << ")";
           bar.print_line(stdout, line.str());
         }

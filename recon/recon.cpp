@@ -95,6 +95,13 @@ Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_
   return p.cameras.at(0);
 }
 
+Camera Reconstructor::estimate_network_camera(const Eigen::VectorXf& input, const ReconSettings& settings,
+                                              double* flip_turn_deg) const {
+  const Camera c = estimate_camera(input, settings.flip_check, flip_turn_deg, settings.pose_mirror_tta);
+  return settings.pose_distance_max > 0 ? distance_as_focal(c, settings.pose_distance_min, settings.pose_distance_max)
+                                        : c;
+}
+
 struct Reconstructor::MeshStats {
   long evaluations = 0;
   int components_removed = 0;
@@ -308,9 +315,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
     r.camera = *camera;
     r.camera_estimated = false;
   } else {
-    r.camera = estimate_camera(input, settings.flip_check, &r.flip_turn_deg, settings.pose_mirror_tta);
-    if (settings.pose_distance_max > 0)
-      r.camera = distance_as_focal(r.camera, settings.pose_distance_min, settings.pose_distance_max);
+    r.camera = estimate_network_camera(input, settings, &r.flip_turn_deg);
     r.camera_estimated = true;
     r.pose_mirror_tta = settings.pose_mirror_tta;
     r.timings.pose = since(t);
@@ -403,9 +408,7 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
       r.timings.prepare += since(t);
       t = Clock::now();
       double turn = 0;
-      cam = estimate_camera(inputs[i], settings.flip_check, &turn, settings.pose_mirror_tta);
-      if (settings.pose_distance_max > 0)
-        cam = distance_as_focal(cam, settings.pose_distance_min, settings.pose_distance_max);
+      cam = estimate_network_camera(inputs[i], settings, &turn);
       r.timings.pose += since(t);
       if (i == 0) r.flip_turn_deg = turn;
     }

@@ -186,6 +186,10 @@ class Reconstructor {
 
  private:
   struct MeshStats;
+  /// The camera run_input and run_views use when none is given: estimate_camera with the settings' flip check and
+  /// TTA, its distance read as a focal length when settings.pose_distance_max > 0 (distance_as_focal).
+  Camera estimate_network_camera(const Eigen::VectorXf& input, const ReconSettings& settings,
+                                 double* flip_turn_deg) const;
   struct ViewRef {
     const Eigen::VectorXf* input;  ///< network input (3 or 4 x 137 x 137)
     Camera camera;                 ///< its camera of the 137 px network image

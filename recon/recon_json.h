@@ -21,7 +21,8 @@ struct ReconOutputPaths {
 };
 
 /// The record of `result`, what Reconstructor::run returned for an image of image_width x image_height with
-/// `settings` (for run_views: the first image's size; the record adds "views", one camera record per image). The refinement's initial camera is given as a camera of the input image (camera_in_input).
+/// `settings` (for run_views: the first image's size; the record adds "views", one camera record per image). The
+/// refinement's initial camera is given as a camera of the input image (camera_in_input).
 Json recon_result_json(const ReconResult& result, const ReconSettings& settings, const ReconOutputPaths& paths,
                        int image_width, int image_height);
 
