@@ -197,6 +197,13 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "none = never (the whole image, padded to a square)")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "always", "none"}));
+  app.add_option("--framing-fit", o->s.framing_fit_rounds,
+                 "rounds of fitting the crop of a reframed image to where a training render would show the object "
+                 "(origin at the centre, size of its distance; docs/recon.md): with a given camera one exact round, "
+                 "with an estimated one each round reconstructs a coarse mesh to find the object's centre and "
+                 "size (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 8));
   app.add_option("--cam", o->cam,
                  "est = estimate the camera with the pose network; a camera JSON file (views/NN.json format) for "
                  "every image; sidecar = IMAGE's own <name>.json")
@@ -342,6 +349,8 @@ std::function<int()> setup_recon(CLI::App& app) {
     if (o->refine && o->s.refine_rounds == 0) o->s.refine_rounds = 1;
     const bool estimate = o->cam == "est";
     check_flags_apply(app, estimate, o->s.refine_rounds > 0, o->s.refine.local_search, o->s.dense, !o->mask.empty());
+    if (o->s.framing.reframe == Reframing::kNone && app.get_option("--framing-fit")->count() > 0)
+      throw InvalidInput("--framing-fit fits the crop of a reframed image; it does not apply with --framing none");
     const bool sidecar = o->cam == "sidecar";
     Camera fixed_camera;
     if (!estimate && !sidecar) fixed_camera = read_camera(o->cam);

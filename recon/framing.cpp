@@ -234,7 +234,83 @@ Image resample_crop(const Image& rgb, const Image& alpha, double x0, double y0, 
   return out;
 }
 
+/// The input's colours as the framing reads them (finite, in [0, 1]): composited on the training background, or
+/// `straight` = the colour channels under the alpha as they are (an input whose alpha is the mask).
+Image framing_rgb(const Image& image, bool straight) {
+  Image rgb;
+  if (!straight) {
+    rgb = to_rgb(image, kBackground);
+  } else {
+    rgb = Image(image.width, image.height, 3);
+    for (int y = 0; y < image.height; ++y)
+      for (int x = 0; x < image.width; ++x)
+        for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = image.at(x, y, image.channels >= 3 ? c : 0);
+  }
+  for (float& v : rgb.data) v = std::isfinite(v) ? std::clamp(v, 0.f, 1.f) : kBackground;
+  return rgb;
+}
+
+/// The network image of `f`'s crop of `rgb`: the object premultiplied by its coverage (the image as it is for mask
+/// source "none").
+Image crop_network_image(const Image& rgb, const FramedInput& f) {
+  const Image all(rgb.width, rgb.height, 1, 1.f);
+  return resample_crop(rgb, f.mask_source == "none" ? all : f.mask, f.x0, f.y0, f.side, kNetImageSize);
+}
+
 }  // namespace
+
+SquareCrop training_crop(const Camera& network_camera, const FramedInput& framed, const Vec3& centre, double radius,
+                         double d_min, double d_max, const TrainingFraming& tf) {
+  require(framed.side > 0, "training_crop: the framing has no crop");
+  if (!(radius > 0 && std::isfinite(radius) && centre.allFinite()))
+    throw InvalidInput("training_crop: the shape's radius must be positive and its centre finite");
+  if (!(d_min > 0 && d_min <= d_max && std::isfinite(d_max)))
+    throw InvalidInput("training_crop: the render distances must be 0 < min <= max");
+  const Camera& c = network_camera;
+  // The unit-sphere frame's points y sit at x = centre + radius y; the camera sees them at
+  // R x + t = radius (R y + t'), t' = (R centre + t) / radius: its origin at t', i.e. at distance |t'|.
+  const Vec3 t1 = (c.R * centre + c.t) / radius;
+  if (!(t1.z() > kMinDepth))
+    throw InvalidInput("training_crop: the camera sees the shape's centre from behind");
+  const Eigen::Vector3d h = c.K * t1;
+  const double qx = h.x() / h.z(), qy = h.y() / h.z();  // the origin's pixel in the network image
+  const double focal = std::sqrt(std::abs(c.K(0, 0) * c.K(1, 1)));
+  require(focal > 0, "training_crop: the camera has no focal length");
+  const double d1 = t1.norm(), dt = std::clamp(d1, d_min, d_max);
+  // A unit sphere at distance d appears with size ~ f / d: the render shows it k times larger than this image.
+  const double longer = std::max(framed.object_box.w, framed.object_box.h);
+  const double s = framed.side / network_camera.width;  // input pixels per network pixel
+  double k = kDisnFocal * d1 / (focal * dt);
+  // The object's extent in the new crop is longer / (side / k): kept within the renders' range.
+  const double extent_now = longer / framed.side;
+  k = std::clamp(k, tf.extent_min / extent_now, tf.extent_max / extent_now);
+  // Network pixel v of the new crop is u = q + (v - c0) / k of the current one: the origin q goes to the centre c0.
+  const double c0x = 0.5 * network_camera.width, c0y = 0.5 * network_camera.height;
+  SquareCrop out;
+  out.side = framed.side / k;
+  out.x0 = framed.x0 + s * (qx - c0x / k);
+  out.y0 = framed.y0 + s * (qy - c0y / k);
+  // The object's box centre within centre_tolerance of the renders' median place (in crop sides).
+  const PixelBox& ob = framed.object_box;
+  const double bx = ob.x + 0.5 * ob.w, by = ob.y + 0.5 * ob.h;
+  const double dx = (bx - out.x0) / out.side - 0.5 - tf.centre_dx, dy = (by - out.y0) / out.side - 0.5 - tf.centre_dy;
+  out.x0 += (dx - std::clamp(dx, -tf.centre_tolerance, tf.centre_tolerance)) * out.side;
+  out.y0 += (dy - std::clamp(dy, -tf.centre_tolerance, tf.centre_tolerance)) * out.side;
+  return out;
+}
+
+void recrop(FramedInput& framed, const Image& image, const SquareCrop& crop) {
+  require(crop.side > 0 && std::isfinite(crop.side) && std::isfinite(crop.x0) && std::isfinite(crop.y0),
+          "recrop: the crop must have a positive, finite side");
+  require(framed.mask.width == image.width && framed.mask.height == image.height,
+          "recrop: the image is not the one framed");
+  framed.x0 = crop.x0;
+  framed.y0 = crop.y0;
+  framed.side = crop.side;
+  framed.extent = std::max(framed.object_box.w, framed.object_box.h) / crop.side;
+  framed.reframed = true;
+  framed.image = crop_network_image(framing_rgb(image, framed.mask_source == "alpha"), framed);
+}
 
 Segmentation parse_segmentation(const std::string& name) {
   if (name == "auto") return Segmentation::kAuto;
@@ -307,8 +383,7 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
   const int W = image.width, H = image.height;
   FramedInput f;
   // 1. The object's coverage at the input's size.
-  Image rgb = to_rgb(image, kBackground);
-  for (float& v : rgb.data) v = std::isfinite(v) ? std::clamp(v, 0.f, 1.f) : kBackground;
+  Image rgb = framing_rgb(image, false);
   bool clean = false;
   if (mask != nullptr) {
     if (mask->empty()) throw InvalidInput(what + ": empty mask");
@@ -323,14 +398,7 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
     f.mask = alpha_of(image);
     for (float& v : f.mask.data) v = std::isfinite(v) ? std::clamp(v, 0.f, 1.f) : 0.f;
     f.mask_source = "alpha";
-    // Colour under the alpha, not composited: rebuild it from the straight channels.
-    rgb = Image(W, H, 3);
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x)
-        for (int c = 0; c < 3; ++c) {
-          const float v = image.at(x, y, image.channels >= 3 ? c : 0);
-          rgb.at(x, y, c) = std::isfinite(v) ? std::clamp(v, 0.f, 1.f) : kBackground;
-        }
+    rgb = framing_rgb(image, true);
   } else if (st.segment == Segmentation::kNone) {
     f.mask = Image(W, H, 1);
     for (int y = 0; y < H; ++y)
@@ -437,11 +505,7 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
   }
   f.extent = longer / f.side;
   f.reframed = reframe;
-  if (f.mask_source == "none") {  // the image as it is
-    f.image = resample_crop(rgb, Image(W, H, 1, 1.f), f.x0, f.y0, f.side, kNetImageSize);
-  } else {
-    f.image = resample_crop(rgb, f.mask, f.x0, f.y0, f.side, kNetImageSize);
-  }
+  f.image = crop_network_image(rgb, f);
   long shown = 0;
   for (int y = 0; y < kNetImageSize; ++y)
     for (int x = 0; x < kNetImageSize; ++x) {

@@ -111,6 +111,26 @@ struct FramedInput {
 FramedInput frame_input(const Image& image, const Image* mask, const FramingSettings& settings,
                         const std::string& what);
 
+/// A square crop of an input image: [x0, x0 + side] x [y0, y0 + side] in its continuous pixel coordinates.
+struct SquareCrop {
+  double x0 = 0, y0 = 0, side = 0;
+};
+
+/// The crop that shows the object as the training renders show theirs, from a camera of the network image of
+/// `framed`: the origin of the object's unit-sphere frame (centre `centre`, radius `radius` in the camera's object
+/// frame; 0 and 1 for a shape already in that frame) at the image centre, and the size a unit sphere has in a
+/// DISN render (focal kDisnFocal) at the render distance in [d_min, d_max] nearest to the camera's. A render
+/// shows the origin at the centre and the object at its distance's size; frame_input's crop centres the object's
+/// box at one size for every object instead. Bounded by the renders' framing (`tf`): the object's box keeps an
+/// extent in [extent_min, extent_max] and its centre within centre_tolerance of the renders' median place.
+/// InvalidInput for a non-positive radius, an inverted range or a camera that sees the centre from behind.
+SquareCrop training_crop(const Camera& network_camera, const FramedInput& framed, const Vec3& centre, double radius,
+                         double d_min, double d_max, const TrainingFraming& tf = {});
+
+/// `framed` (frame_input's answer for `image`) cut again at `crop`: its network image resampled from `image` as
+/// frame_input resamples it (same colours and mask), x0/y0/side/extent updated, reframed set.
+void recrop(FramedInput& framed, const Image& image, const SquareCrop& crop);
+
 /// A 1-channel image of the input's size (e.g. a missing-data mask) taken through the framing's crop to 137 x 137, as
 /// the network image was (the crop's part outside the input is 0). InvalidInput when the sizes differ.
 Image frame_channel(const Image& channel, const FramedInput& framed);

@@ -1,6 +1,7 @@
 #include "recon/recon.h"
 
 #include "camera/render.h"
+#include "camera/views.h"
 #include "core/error.h"
 #include "extract/adaptive.h"
 #include "extract/cleanup.h"
@@ -8,6 +9,7 @@
 #include "nets/pose_net.h"
 #include "nets/pose_train.h"
 #include "nets/sdf_train.h"
+#include "sdf/normalize.h"
 
 #include <algorithm>
 #include <atomic>
@@ -128,8 +130,11 @@ Camera given_network_camera(const Camera& camera, const Image& image, const Fram
 /// The settings' checks every reconstruction makes before any work.
 void check_settings(const ReconSettings& settings, const std::string& what) {
   require(settings.refine_rounds >= 0, what + ": refinement rounds must be >= 0");
+  require(settings.framing_fit_rounds >= 0, what + ": framing fit rounds must be >= 0");
   const int refine_res = std::min(settings.refine_resolution, settings.resolution);
-  for (const int res : {settings.resolution, settings.refine_rounds > 0 ? refine_res : settings.resolution}) {
+  const int fit_res = std::min(settings.framing_fit_resolution, settings.resolution);
+  for (const int res : {settings.resolution, settings.refine_rounds > 0 ? refine_res : settings.resolution,
+                        settings.framing_fit_rounds > 0 ? fit_res : settings.resolution}) {
     require(res >= 3 && settings.coarse_resolution >= 2, what + ": resolution too small");
     require(settings.dense || ((res - 1) % (settings.coarse_resolution - 1) == 0 &&
                                power_of_two((res - 1) / (settings.coarse_resolution - 1))),
@@ -151,27 +156,35 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
     throw InvalidInput(what + ": the missing-data mask is " + std::to_string(missing->width) + " x " +
                        std::to_string(missing->height) + ", the image " + std::to_string(image.width) + " x " +
                        std::to_string(image.height));
+  check_settings(settings, what);
   FramedInput framed = frame_input(image, mask, settings.framing, what);
-  Eigen::VectorXf input = network_image(framed.image);
+  Image missing_channel;
   if (missing != nullptr) {
-    Image one = *missing;
-    if (one.channels != 1) {  // alpha, else the first channel
-      Image c(one.width, one.height, 1);
-      const int src = one.channels == 2 || one.channels == 4 ? one.channels - 1 : 0;
-      for (int y = 0; y < one.height; ++y)
-        for (int x = 0; x < one.width; ++x) c.at(x, y) = one.at(x, y, src);
-      one = std::move(c);
+    missing_channel = *missing;
+    if (missing_channel.channels != 1) {  // alpha, else the first channel
+      Image c(missing->width, missing->height, 1);
+      const int src = missing->channels == 2 || missing->channels == 4 ? missing->channels - 1 : 0;
+      for (int y = 0; y < missing->height; ++y)
+        for (int x = 0; x < missing->width; ++x) c.at(x, y) = missing->at(x, y, src);
+      missing_channel = std::move(c);
     }
-    const Image m = frame_channel(one, framed);
+  }
+  // The network input of the framing: RGB, plus the missing-data mask taken through the same crop when given.
+  const auto make_input = [&](const FramedInput& f) {
+    Eigen::VectorXf rgb = network_image(f.image);
+    if (missing == nullptr) return rgb;
+    const Image m = frame_channel(missing_channel, f);
     const Eigen::Index n = kNetImageSize * kNetImageSize;
     Eigen::VectorXf full(4 * n);
     for (Eigen::Index i = 0; i < n; ++i) {
       const float w = std::clamp(m.data[static_cast<size_t>(i)], 0.f, 1.f);
-      for (int c = 0; c < 3; ++c) full[c * n + i] = (1 - w) * input[c * n + i] + w * kNetBackground;
+      for (int c = 0; c < 3; ++c) full[c * n + i] = (1 - w) * rgb[c * n + i] + w * kNetBackground;
       full[3 * n + i] = w;
     }
-    input = std::move(full);
-  }
+    return full;
+  };
+  Eigen::VectorXf input = make_input(framed);
+  const int fits = framed.reframed ? fit_framing(image, framed, input, camera, settings, what, make_input) : 0;
   Image silhouette;
   if (settings.refine_rounds > 0) {
     if (framed.mask_source == "none") {
@@ -189,9 +202,41 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
                             settings.refine_rounds > 0 ? &silhouette : nullptr);
   r.input_camera = camera_in_input(r.camera, framed, image.width, image.height);
   r.framing = std::move(framed);
+  r.framing_fits = fits;
   r.timings.prepare = prep;
   r.timings.total += prep;
   return r;
+}
+
+int Reconstructor::fit_framing(const Image& image, FramedInput& framed, Eigen::VectorXf& input, const Camera* camera,
+                               const ReconSettings& settings, const std::string& what,
+                               const std::function<Eigen::VectorXf(const FramedInput&)>& make_input) const {
+  const ViewSetSettings renders;  // the training renders' camera distances
+  const int rounds = camera != nullptr ? std::min(1, settings.framing_fit_rounds) : settings.framing_fit_rounds;
+  const int res = std::min(settings.framing_fit_resolution, settings.resolution);
+  int done = 0;
+  for (int round = 0; round < rounds; ++round) {
+    SquareCrop crop;
+    if (camera != nullptr) {  // exact: the given camera says where the origin is and how far
+      crop = training_crop(given_network_camera(*camera, image, framed, what), framed, Vec3::Zero(), 1.0,
+                           renders.distance_min, renders.distance_max, settings.framing.training);
+    } else {
+      const Camera c = estimate_network_camera(input.head(3 * kNetImageSize * kNetImageSize), settings, nullptr);
+      Normalization shape;
+      try {
+        MeshStats st;
+        shape = unit_sphere_normalization(reconstruct(input, c, settings, res, what, st));
+      } catch (const Error&) {
+        break;  // no surface (or a degenerate one) through this camera: keep the crop
+      }
+      crop = training_crop(c, framed, shape.center, shape.radius, renders.distance_min, renders.distance_max,
+                           settings.framing.training);
+    }
+    recrop(framed, image, crop);
+    input = make_input(framed);
+    ++done;
+  }
+  return done;
 }
 
 double Reconstructor::extraction_safety(const ReconSettings& settings) const {
@@ -400,6 +445,9 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
     auto t = Clock::now();
     framed[i] = frame_input(images[i], nullptr, settings.framing, what[i]);
     inputs[i] = network_image(framed[i].image);
+    if (framed[i].reframed)
+      fit_framing(images[i], framed[i], inputs[i], cameras[i], settings, what[i],
+                  [](const FramedInput& f) { return network_image(f.image); });
     Camera cam;
     if (cameras[i] != nullptr) {
       cam = given_network_camera(*cameras[i], images[i], framed[i], what[i]);

@@ -18,6 +18,7 @@
 #include "recon/camera_refine.h"
 #include "recon/framing.h"
 
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -95,6 +96,14 @@ struct ReconSettings {
   CameraRefineSettings refine = recon_refine_defaults();
   /// How run() finds and frames the object in the input image.
   FramingSettings framing;
+  /// Rounds of fitting the crop to the object when the framing reframed the input (0 = off; docs/recon.md, "Input
+  /// and framing"). frame_input centres the object's box at one size; a render shows the object-frame origin at the
+  /// centre and the object at its distance's size. With a given camera one round moves the crop there exactly
+  /// (training_crop); with an estimated one each round reconstructs a coarse mesh (`framing_fit_resolution`) through
+  /// the pose network's camera, takes the mesh's unit-sphere frame (centre and radius, sdf/normalize.h) as the
+  /// object's and re-cuts the crop (training_crop), and the pose network then reads the new crop.
+  int framing_fit_rounds = 1;
+  int framing_fit_resolution = 33;
 };
 
 struct ReconTimings {
@@ -114,6 +123,7 @@ struct ReconResult {
   Camera camera;                ///< the camera used, of the 137 px network image, after refinement when it ran
   Camera input_camera;          ///< the same camera as a camera of the input image (run(); = camera for run_input)
   FramedInput framing;          ///< how run() framed the input (empty for run_input)
+  int framing_fits = 0;         ///< rounds of ReconSettings::framing_fit_rounds that moved the crop
   bool camera_estimated = false;
   double flip_turn_deg = 0;     ///< degrees the flip check turned the estimated camera about +y (0 = kept)
   bool pose_mirror_tta = false; ///< the estimated camera combines the mirrored input's reading
@@ -186,6 +196,11 @@ class Reconstructor {
 
  private:
   struct MeshStats;
+  /// ReconSettings::framing_fit_rounds for run(): moves `framed`'s crop (and `input`, remade by `make_input`);
+  /// returns the rounds that moved it.
+  int fit_framing(const Image& image, FramedInput& framed, Eigen::VectorXf& input, const Camera* camera,
+                  const ReconSettings& settings, const std::string& what,
+                  const std::function<Eigen::VectorXf(const FramedInput&)>& make_input) const;
   /// The camera run_input and run_views use when none is given: estimate_camera with the settings' flip check and
   /// TTA, its distance read as a focal length when settings.pose_distance_max > 0 (distance_as_focal).
   Camera estimate_network_camera(const Eigen::VectorXf& input, const ReconSettings& settings,

@@ -16,6 +16,7 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
   const FramedInput& fr = r.framing;
   j["framing"] = {{"mask_source", fr.mask_source},
                   {"reframed", fr.reframed},
+                  {"fit_rounds", r.framing_fits},
                   {"crop", {{"x", fr.x0}, {"y", fr.y0}, {"side", fr.side}}},
                   {"object_box", {fr.object_box.x, fr.object_box.y, fr.object_box.w, fr.object_box.h}},
                   {"extent", fr.extent},

@@ -246,6 +246,7 @@ TEST_CASE("recon of a non-square photo-like image: plain background found, refra
   const Json j = Json::parse(r.out);
   CHECK(j["framing"]["mask_source"] == "plain-background");
   CHECK(j["framing"]["reframed"].get<bool>());
+  CHECK(j["framing"]["fit_rounds"] == 1);  // the default --framing-fit
   CHECK(j["warnings"].empty());
   const Camera cam = camera_from_json(j["camera"]), net = camera_from_json(j["network_camera"]);
   CHECK(cam.width == 300);
@@ -263,14 +264,44 @@ TEST_CASE("recon of a non-square photo-like image: plain background found, refra
   const double iou = iou_of(out, kSource + "/data/examples/gt/plane_0010.ply");
   MESSAGE("IoU of the plane on blue, off-centre, 300 x 180: " << iou);
   CHECK(iou > 0.5);
-  // With --pose-distances the estimated camera keeps its view of the origin and lies at a render distance.
-  const Run rd = run("recon " + in + " -o " + (dir / "comp_d.stl").string() + " --res 33 --json --pose-distances 2.6,2.6");
+  // --framing-fit 0: the box-centred crop as it is.
+  const Run r0 = run("recon " + in + " -o " + (dir / "comp_0.stl").string() + " --res 33 --json --framing-fit 0");
+  REQUIRE_MESSAGE(r0.code == 0, r0.err);
+  const Json j0 = Json::parse(r0.out);
+  CHECK(j0["framing"]["fit_rounds"] == 0);
+  const Camera net0 = camera_from_json(j0["network_camera"]);
+  // With --pose-distances the estimated camera keeps its view of the origin and lies at a render distance (on the
+  // same crop: without fitting, which reads the camera).
+  const Run rd = run("recon " + in + " -o " + (dir / "comp_d.stl").string() +
+                     " --res 33 --json --framing-fit 0 --pose-distances 2.6,2.6");
   REQUIRE_MESSAGE(rd.code == 0, rd.err);
   const Json jd = Json::parse(rd.out);
   const Camera netd = camera_from_json(jd["network_camera"]);
   CHECK(netd.t.norm() == doctest::Approx(2.6).epsilon(1e-9));
-  CHECK((project(netd, Vec3::Zero()) - project(net, Vec3::Zero())).norm() < 1e-6);
-  CHECK(netd.K(0, 0) / net.K(0, 0) == doctest::Approx(2.6 / net.t.norm()).epsilon(1e-9));
+  CHECK((project(netd, Vec3::Zero()) - project(net0, Vec3::Zero())).norm() < 1e-6);
+  CHECK(netd.K(0, 0) / net0.K(0, 0) == doctest::Approx(2.6 / net0.t.norm()).epsilon(1e-9));
+
+  // With the true camera (the example's view moved to the pasted place) one fitting round finds the pasted render's
+  // square exactly: the network camera is the example's camera again.
+  Camera truth = read_camera(kSource + "/data/examples/plane_0010.json");
+  const Camera example = truth;
+  truth.K(0, 2) += ox;
+  truth.K(1, 2) += oy;
+  truth.width = 300;
+  truth.height = 180;
+  const std::string cam_path = (dir / "truth.json").string();
+  write_json(cam_path, camera_to_json(truth));
+  const Run rt = run("recon " + in + " -o " + (dir / "comp_t.stl").string() + " --res 33 --json --cam " + cam_path);
+  REQUIRE_MESSAGE(rt.code == 0, rt.err);
+  const Json jt = Json::parse(rt.out);
+  CHECK(jt["framing"]["fit_rounds"] == 1);
+  CHECK(jt["framing"]["crop"]["x"].get<double>() == doctest::Approx(ox).epsilon(1e-9));
+  CHECK(jt["framing"]["crop"]["side"].get<double>() == doctest::Approx(137).epsilon(1e-9));
+  CHECK((camera_from_json(jt["network_camera"]).K - example.K).cwiseAbs().maxCoeff() < 1e-9);
+  CHECK(run("recon " + in + " -o " + (dir / "comp_bad.stl").string() + " --framing-fit -1").code != 0);
+  const Run rn = run("recon " + in + " -o " + (dir / "comp_bad.stl").string() + " --framing none --framing-fit 1");
+  CHECK(rn.code == 1);
+  CHECK(rn.err.find("--framing-fit") != std::string::npos);
 }
 
 TEST_CASE("recon outputs: the format follows -o, a folder only for a folder input, flags that do not apply fail") {

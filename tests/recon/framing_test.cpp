@@ -287,3 +287,104 @@ TEST_CASE("the training reframing augmentation frames a render where recon frame
   // The object's height becomes 0.67 of the image, plus the magnified edge's blur (k = 2.3: a pixel either side).
   CHECK(by_aug.y1 - by_aug.y0 == doctest::Approx(tf.extent * kNetImageSize).epsilon(3.0 / 92));
 }
+
+namespace {
+
+/// A 137 px "render" (an off-centre ellipse on transparent) pasted a times larger at (ox, oy) on a transparent
+/// W x H canvas, drawn analytically at both sizes; the canvas's camera is `render_camera` scaled and moved alike.
+struct Pasted {
+  Image render, canvas;
+  Camera canvas_camera;
+};
+Pasted pasted_render(const Camera& render_camera, double a, double ox, double oy, int W, int H) {
+  const double cx = 80, cy = 60, rx = 30, ry = 42;  // in the render: right of and above the origin's pixel
+  Pasted p;
+  p.render = ellipse_image(137, 137, cx, cy, rx, ry, kWhite, true);
+  p.canvas = ellipse_image(W, H, ox + a * cx, oy + a * cy, a * rx, a * ry, kWhite, true);
+  p.canvas_camera = render_camera;
+  Eigen::Matrix3d A;
+  A << a, 0, ox, 0, a, oy, 0, 0, 1;
+  p.canvas_camera.K = A * render_camera.K;
+  p.canvas_camera.width = W;
+  p.canvas_camera.height = H;
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("framing: the training crop of the true camera undoes a paste, exactly") {
+  // A render at a render distance pasted 1.6 times larger, off-centre, on a non-square canvas: recon's crop centres
+  // the object's box; the training crop through the canvas's true camera is the pasted render's square again.
+  const Camera cam = look_at(40, 27, 2.8);
+  const double a = 1.6, ox = 120, oy = 15;
+  const Pasted p = pasted_render(cam, a, ox, oy, 400, 260);
+  FramingSettings fs;
+  fs.reframe = Reframing::kAlways;
+  FramedInput f = frame_input(p.canvas, nullptr, fs, "canvas");
+  REQUIRE(f.reframed);
+  CHECK(std::abs(f.x0 - ox) > 5);  // the box-centred crop is elsewhere
+  const Camera net = camera_in_network(p.canvas_camera, f);
+  const SquareCrop c = training_crop(net, f, Vec3::Zero(), 1.0, 2.45, 3.0);
+  CHECK(c.x0 == doctest::Approx(ox).epsilon(1e-9));
+  CHECK(c.y0 == doctest::Approx(oy).epsilon(1e-9));
+  CHECK(c.side == doctest::Approx(137 * a).epsilon(1e-9));
+
+  // Re-cut there, the network image is the render again (edges resampled: alpha within a few per cent in all).
+  recrop(f, p.canvas, c);
+  CHECK(f.reframed);
+  CHECK(f.side == doctest::Approx(137 * a));
+  CHECK(f.extent == doctest::Approx(std::max(f.object_box.w, f.object_box.h) / (137 * a)));
+  double diff = 0, area = 0;
+  for (int y = 0; y < 137; ++y)
+    for (int x = 0; x < 137; ++x) {
+      diff += std::abs(f.image.at(x, y, 3) - p.render.at(x, y, 3));
+      area += p.render.at(x, y, 3);
+    }
+  INFO("alpha difference " << diff << " over an object of " << area << " px");
+  CHECK(diff < 0.03 * area);
+  // and the network camera through the new crop is the render's camera.
+  const Camera back = camera_in_network(p.canvas_camera, f);
+  CHECK((back.K - cam.K).cwiseAbs().maxCoeff() < 1e-9);
+}
+
+TEST_CASE("framing: the training crop moves a camera's distance into the renders' range and reads a shape's frame") {
+  const Camera cam = look_at(200, 26, 4.0);  // farther than any render: the render at 3.0 shows it 4/3 larger
+  const Pasted p = pasted_render(cam, 1.3, 60, 30, 320, 224);
+  FramingSettings fs;
+  fs.reframe = Reframing::kAlways;
+  const FramedInput f = frame_input(p.canvas, nullptr, fs, "canvas");
+  const Camera net = camera_in_network(p.canvas_camera, f);
+  const SquareCrop c = training_crop(net, f, Vec3::Zero(), 1.0, 2.45, 3.0);
+  CHECK(c.side == doctest::Approx(137 * 1.3 * 3.0 / 4.0).epsilon(1e-9));
+  // The origin's pixel on the canvas (60 + 1.3 * 68.5) is the new crop's centre.
+  CHECK(c.x0 + 0.5 * c.side == doctest::Approx(60 + 1.3 * 68.5).epsilon(1e-9));
+  CHECK(c.y0 + 0.5 * c.side == doctest::Approx(30 + 1.3 * 68.5).epsilon(1e-9));
+
+  // The shape's own frame: the object moved to `centre` and scaled by `radius`, seen by the camera that shows it
+  // as `net` showed the original (t' = radius t - R centre), has the same training crop.
+  const Vec3 centre(0.2, -0.1, 0.3);
+  const double radius = 0.7;
+  Camera moved = net;
+  moved.t = radius * net.t - net.R * centre;
+  const SquareCrop m = training_crop(moved, f, centre, radius, 2.45, 3.0);
+  CHECK(m.x0 == doctest::Approx(c.x0).epsilon(1e-9));
+  CHECK(m.y0 == doctest::Approx(c.y0).epsilon(1e-9));
+  CHECK(m.side == doctest::Approx(c.side).epsilon(1e-9));
+
+  // Bounded by the renders' framing: a camera whose origin projects far off the object keeps the object's box
+  // within the centre tolerance, and its size within the renders' extents.
+  Camera off = net;
+  off.K(0, 2) += 300;
+  const TrainingFraming tf;
+  const SquareCrop b = training_crop(off, f, Vec3::Zero(), 1.0, 2.45, 3.0);
+  const double bx = f.object_box.x + 0.5 * f.object_box.w;
+  CHECK((bx - b.x0) / b.side - 0.5 - tf.centre_dx == doctest::Approx(-tf.centre_tolerance).epsilon(1e-9));
+  const SquareCrop tiny = training_crop(net, f, Vec3::Zero(), 1e-3, 2.45, 3.0);  // a speck: the box at its largest
+  CHECK(std::max(f.object_box.w, f.object_box.h) / tiny.side == doctest::Approx(tf.extent_max).epsilon(1e-9));
+
+  CHECK_THROWS_AS((void)training_crop(net, f, Vec3::Zero(), 0.0, 2.45, 3.0), InvalidInput);
+  CHECK_THROWS_AS((void)training_crop(net, f, Vec3::Zero(), 1.0, 3.0, 2.45), InvalidInput);
+  Camera behind = net;
+  behind.t = -behind.t;
+  CHECK_THROWS_AS((void)training_crop(behind, f, Vec3::Zero(), 1.0, 2.45, 3.0), InvalidInput);
+}

@@ -268,3 +268,57 @@ TEST_CASE("Reconstructor: a multi-view reconstruction extracts the mean of the v
   // Without a pose network every view needs a camera.
   CHECK_THROWS_AS((void)rb.run_views({a, b}, {&cam_a, nullptr}, s, {"a", "b"}), InvalidInput);
 }
+
+TEST_CASE("Reconstructor: fitting the framing with a given camera recovers the render's crop and camera") {
+  // The disc "render" (test_camera) pasted 1.5 times larger, off-centre, on a transparent 320 x 240 canvas; the
+  // canvas's camera is the render's scaled and moved alike. recon crops around the disc's box; one fitting round
+  // moves the crop to the pasted render's square, where the network camera is the render's camera again.
+  const Camera cam = test_camera();
+  const double a = 1.5, ox = 40, oy = 25;
+  Image canvas(320, 240, 4, 0.f);
+  for (int y = 0; y < canvas.height; ++y)
+    for (int x = 0; x < canvas.width; ++x) {
+      const double u = (x + 0.5 - ox) / a, v = (y + 0.5 - oy) / a;  // the render's continuous pixel
+      if (std::hypot(u - 68.5, v - 68.5) < 35.0) {
+        for (int c = 0; c < 3; ++c) canvas.at(x, y, c) = 0.4f + 0.1f * static_cast<float>(c);
+        canvas.at(x, y, 3) = 1.f;
+      }
+    }
+  Camera canvas_cam = cam;
+  Eigen::Matrix3d A;
+  A << a, 0, ox, 0, a, oy, 0, 0, 1;
+  canvas_cam.K = A * cam.K;
+  canvas_cam.width = canvas.width;
+  canvas_cam.height = canvas.height;
+  ReconSettings s = small_settings(true);
+  s.framing_fit_rounds = 0;
+  const Eigen::VectorXf disc = disc_input();
+  const Reconstructor rb(binary_with_surface(disc, cam, s.box_half), nullptr);
+
+  const ReconResult plain = rb.run(canvas, nullptr, &canvas_cam, s, "canvas");
+  REQUIRE(plain.framing.reframed);
+  CHECK(plain.framing_fits == 0);
+  CHECK(std::abs(plain.camera.K(1, 2) - cam.K(1, 2)) > 1.0);  // the box-centred crop moved the principal point
+
+  s.framing_fit_rounds = 3;  // with a given camera one round is exact: the rest are not run
+  const ReconResult fitted = rb.run(canvas, nullptr, &canvas_cam, s, "canvas");
+  CHECK(fitted.framing_fits == 1);
+  CHECK(fitted.framing.x0 == doctest::Approx(ox).epsilon(1e-9));
+  CHECK(fitted.framing.y0 == doctest::Approx(oy).epsilon(1e-9));
+  CHECK(fitted.framing.side == doctest::Approx(137 * a).epsilon(1e-9));
+  CHECK((fitted.camera.K - cam.K).cwiseAbs().maxCoeff() < 1e-9);
+  CHECK((fitted.input_camera.K - canvas_cam.K).cwiseAbs().maxCoeff() < 1e-9);
+  // The network saw the render again, up to the resampled edge (and the box-centred crop did not).
+  const auto differing = [&](const ReconResult& r) {
+    const Eigen::VectorXf seen = network_image(r.framing.image);
+    return ((seen - disc).array().abs() > 0.2f).count();
+  };
+  const long disc_px = (disc.head(kNetImageSize * kNetImageSize).array() < 0.5f).count();
+  INFO("network pixels off the render: fitted " << differing(fitted) << ", box-centred " << differing(plain)
+                                                << "; the disc covers " << disc_px);
+  CHECK(differing(fitted) < 0.03 * 3 * disc_px);
+  CHECK(differing(plain) > 0.3 * 3 * disc_px);
+
+  s.framing_fit_rounds = -1;
+  CHECK_THROWS_AS((void)rb.run(canvas, nullptr, &canvas_cam, s, "canvas"), InvalidInput);
+}
