@@ -75,47 +75,6 @@ BorderStats border_stats(const Image& rgb, double tolerance) {
   return s;
 }
 
-/// GrabCut on the image shrunk to at most max_side pixels, seeded with `rect` (input pixels); the object's
-/// coverage at the input's size. OpenCV's k-means initialisation draws from cv::theRNG(), which is seeded here:
-/// the same image gives the same mask.
-Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int iterations) {
-  const int W = rgb.width, H = rgb.height;
-  const double scale = std::min(1.0, static_cast<double>(max_side) / std::max(W, H));
-  cv::Mat full(H, W, CV_8UC3);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
-      for (int c = 0; c < 3; ++c)  // OpenCV's channel order is BGR
-        full.at<cv::Vec3b>(y, x)[2 - c] =
-            static_cast<uchar>(std::lround(255.f * std::clamp(rgb.at(x, y, c), 0.f, 1.f)));
-  cv::Mat small;
-  const int w = std::max(1, static_cast<int>(std::lround(W * scale))), h = std::max(1, static_cast<int>(std::lround(H * scale)));
-  if (scale < 1.0)
-    cv::resize(full, small, cv::Size(w, h), 0, 0, cv::INTER_AREA);
-  else
-    small = full;
-  cv::Rect r(static_cast<int>(std::floor(rect.x * scale)), static_cast<int>(std::floor(rect.y * scale)),
-             std::max(1, static_cast<int>(std::ceil(rect.w * scale))), std::max(1, static_cast<int>(std::ceil(rect.h * scale))));
-  r &= cv::Rect(0, 0, small.cols, small.rows);
-  cv::Mat labels(small.size(), CV_8UC1, cv::Scalar(cv::GC_BGD)), bgd, fgd;
-  cv::theRNG().state = 0x5dfc0de5eedULL;
-  cv::grabCut(small, labels, r, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
-  cv::Mat fg(small.size(), CV_32FC1);
-  for (int y = 0; y < small.rows; ++y)
-    for (int x = 0; x < small.cols; ++x) {
-      const uchar l = labels.at<uchar>(y, x);
-      fg.at<float>(y, x) = (l == cv::GC_FGD || l == cv::GC_PR_FGD) ? 1.f : 0.f;
-    }
-  cv::Mat up;
-  if (scale < 1.0)
-    cv::resize(fg, up, cv::Size(W, H), 0, 0, cv::INTER_LINEAR);
-  else
-    up = fg;
-  Image out(W, H, 1);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) out.at(x, y) = std::clamp(up.at<float>(y, x), 0.f, 1.f);
-  return out;
-}
-
 /// Bhattacharyya coefficient of the colour histograms (8 bins per channel) of the pixels over and under 0.5 in
 /// `mask`: 1 when object and background have the same colours (nothing stands out), 0 when they share none.
 double colour_overlap(const Image& rgb, const Image& mask) {
@@ -258,6 +217,84 @@ Image crop_network_image(const Image& rgb, const FramedInput& f) {
 }
 
 }  // namespace
+
+Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int iterations, GrabCutSeed seed) {
+  const int W = rgb.width, H = rgb.height;
+  const double scale = std::min(1.0, static_cast<double>(max_side) / std::max(W, H));
+  cv::Mat full(H, W, CV_8UC3);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      for (int c = 0; c < 3; ++c)  // OpenCV's channel order is BGR
+        full.at<cv::Vec3b>(y, x)[2 - c] =
+            static_cast<uchar>(std::lround(255.f * std::clamp(rgb.at(x, y, c), 0.f, 1.f)));
+  cv::Mat small;
+  const int w = std::max(1, static_cast<int>(std::lround(W * scale))), h = std::max(1, static_cast<int>(std::lround(H * scale)));
+  if (scale < 1.0)
+    cv::resize(full, small, cv::Size(w, h), 0, 0, cv::INTER_AREA);
+  else
+    small = full;
+  cv::Rect r(static_cast<int>(std::floor(rect.x * scale)), static_cast<int>(std::floor(rect.y * scale)),
+             std::max(1, static_cast<int>(std::ceil(rect.w * scale))), std::max(1, static_cast<int>(std::ceil(rect.h * scale))));
+  r &= cv::Rect(0, 0, small.cols, small.rows);
+  cv::Mat labels(small.size(), CV_8UC1, cv::Scalar(cv::GC_BGD)), bgd, fgd;
+  if (seed != GrabCutSeed::kColour) {
+    cv::theRNG().state = 0x5dfc0de5eedULL;
+    cv::grabCut(small, labels, r, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
+  }
+  require(r.width > 0 && r.height > 0, "grabcut_mask: the rectangle lies outside the image");
+  const auto any_foreground = [&] {
+    for (int y = 0; y < labels.rows; ++y)
+      for (int x = 0; x < labels.cols; ++x)
+        if (labels.at<uchar>(y, x) == cv::GC_FGD || labels.at<uchar>(y, x) == cv::GC_PR_FGD) return true;
+    return false;
+  };
+  if (seed == GrabCutSeed::kColour || (seed == GrabCutSeed::kRectThenColour && !any_foreground())) {
+    // The rectangle's colour models converged to "all background" (the object is a small part of a busy rectangle).
+    // Seed again from colour: inside the rectangle, pixels whose colour (8 bins per channel) is rare outside it
+    // (under 0.1% of the outside pixels) start as probable object, the rest as probable background.
+    std::vector<double> outside(512, 0.0);
+    double n_out = 0;
+    const auto bin_of = [&](int x, int y) {
+      const cv::Vec3b& v = small.at<cv::Vec3b>(y, x);
+      return (v[2] / 32) * 64 + (v[1] / 32) * 8 + v[0] / 32;
+    };
+    for (int y = 0; y < small.rows; ++y)
+      for (int x = 0; x < small.cols; ++x)
+        if (!r.contains(cv::Point(x, y))) {
+          outside[static_cast<size_t>(bin_of(x, y))] += 1;
+          n_out += 1;
+        }
+    bool seeded = false;
+    labels.setTo(cv::Scalar(cv::GC_BGD));
+    for (int y = r.y; y < r.y + r.height; ++y)
+      for (int x = r.x; x < r.x + r.width; ++x) {
+        const bool rare = n_out == 0 || outside[static_cast<size_t>(bin_of(x, y))] < 0.001 * n_out;
+        labels.at<uchar>(y, x) = rare ? cv::GC_PR_FGD : cv::GC_PR_BGD;
+        seeded = seeded || rare;
+      }
+    if (seeded) {
+      bgd.release();
+      fgd.release();
+      cv::theRNG().state = 0x5dfc0de5eedULL;
+      cv::grabCut(small, labels, r, bgd, fgd, iterations, cv::GC_INIT_WITH_MASK);
+    }
+  }
+  cv::Mat fg(small.size(), CV_32FC1);
+  for (int y = 0; y < small.rows; ++y)
+    for (int x = 0; x < small.cols; ++x) {
+      const uchar l = labels.at<uchar>(y, x);
+      fg.at<float>(y, x) = (l == cv::GC_FGD || l == cv::GC_PR_FGD) ? 1.f : 0.f;
+    }
+  cv::Mat up;
+  if (scale < 1.0)
+    cv::resize(fg, up, cv::Size(W, H), 0, 0, cv::INTER_LINEAR);
+  else
+    up = fg;
+  Image out(W, H, 1);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) out.at(x, y) = std::clamp(up.at<float>(y, x), 0.f, 1.f);
+  return out;
+}
 
 SquareCrop training_crop(const Camera& network_camera, const FramedInput& framed, const Vec3& centre, double radius,
                          double d_min, double d_max, const TrainingFraming& tf) {
@@ -439,7 +476,7 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
         rect = {mx, my, W - 2 * mx, H - 2 * my};
       }
       if (rect.w < 2 || rect.h < 2) throw InvalidInput(what + ": image too small to segment (" + std::to_string(W) + "x" + std::to_string(H) + ")");
-      f.mask = grabcut_mask(rgb, rect, st.grabcut_max_side, st.grabcut_iterations);
+      f.mask = grabcut_mask(rgb, rect, st.grabcut_max_side, st.grabcut_iterations, GrabCutSeed::kRectThenColour);
       f.mask_source = "grabcut";
       if (st.segment == Segmentation::kAuto)
         f.warnings.push_back("the background is not plain (" + fmt(100 * border.plain_share, 0) +

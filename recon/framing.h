@@ -140,6 +140,20 @@ Image frame_channel(const Image& channel, const FramedInput& framed);
 Camera camera_in_input(const Camera& network_camera, const FramedInput& framed, int input_width, int input_height);
 Camera camera_in_network(const Camera& input_camera, const FramedInput& framed);
 
+/// How GrabCut's colour models start.
+enum class GrabCutSeed {
+  kRect,            ///< OpenCV's rectangle: outside it background, inside it probably object
+  kColour,          ///< outside the rectangle background; inside it, pixels whose colour (8 bins per channel) is rare
+                    ///< outside it (under 0.1% of the outside pixels) probably object, the rest probably background
+  kRectThenColour,  ///< kRect, and kColour when it leaves no object (its models can converge to "all background"
+                    ///< when the object is a small part of a busy rectangle); what frame_input uses
+};
+
+/// OpenCV's GrabCut on `rgb` shrunk to at most max_side pixels on its longer side, seeded with `rect` (input pixels)
+/// as `seed` says; the object's coverage (0 or 1, interpolated where shrunk) at the input's size. Its k-means
+/// initialisation draws from cv::theRNG(), which is seeded here: the same image gives the same mask.
+Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int iterations, GrabCutSeed seed);
+
 /// Coverage of the object in a plain-background image: 0 where every channel is within `tolerance` of
 /// `background`, rising to 1 at twice that distance. 1 channel, the image's size.
 Image plain_background_mask(const Image& rgb, const float background[3], double tolerance);

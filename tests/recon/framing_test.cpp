@@ -7,7 +7,9 @@
 
 #include <doctest/doctest.h>
 
+#include <array>
 #include <cmath>
+#include <vector>
 
 using namespace sdfkit;
 
@@ -387,4 +389,40 @@ TEST_CASE("framing: the training crop moves a camera's distance into the renders
   Camera behind = net;
   behind.t = -behind.t;
   CHECK_THROWS_AS((void)training_crop(behind, f, Vec3::Zero(), 1.0, 2.45, 3.0), InvalidInput);
+}
+
+TEST_CASE("framing: GrabCut seeded by colour finds an object whose colour the background lacks") {
+  // Wavy greens and browns over the whole image (every colour of the inside also near the border) and a small
+  // grey-blue object whose colour the background lacks. Seeded by colour (the pixels whose colour is rare outside the rectangle), GrabCut finds the object.
+  Image im(320, 224, 3);
+  Rng rng(5);
+  for (int y = 0; y < 224; ++y)
+    for (int x = 0; x < 320; ++x) {
+      const double a = 0.5 + 0.5 * std::sin(x / 9.0 + 2 * std::sin(y / 23.0)), b = 0.5 + 0.5 * std::cos(y / 7.0 + x / 31.0);
+      const double n = rng.uniform(-0.03, 0.03);
+      im.at(x, y, 0) = static_cast<float>(0.2 + 0.4 * a + n);
+      im.at(x, y, 1) = static_cast<float>(0.3 + 0.5 * b + n);
+      im.at(x, y, 2) = static_cast<float>(0.05 + 0.15 * a * b + n);
+    }
+  const double cx = 200, cy = 90, rx = 16, ry = 12;
+  for (int y = 0; y < 224; ++y)
+    for (int x = 0; x < 320; ++x) {
+      const double u = (x + 0.5 - cx) / rx, v = (y + 0.5 - cy) / ry;
+      if (u * u + v * v <= 1.0) {
+        im.at(x, y, 0) = 0.55f;
+        im.at(x, y, 1) = 0.6f;
+        im.at(x, y, 2) = 0.8f;
+      }
+    }
+  const PixelBox rect{10, 7, 300, 210};  // the image minus 3%, as frame_input seeds it
+  const Image by_colour = grabcut_mask(im, rect, 400, 5, GrabCutSeed::kColour);
+  const Image by_rect = grabcut_mask(im, rect, 400, 5, GrabCutSeed::kRect);
+  INFO("mask IoU: colour seed " << mask_iou(by_colour, cx, cy, rx, ry) << ", rectangle " << mask_iou(by_rect, cx, cy, rx, ry));
+  CHECK(mask_iou(by_colour, cx, cy, rx, ry) > 0.9);
+  // The fallback keeps the rectangle's answer when it found an object.
+  CHECK(grabcut_mask(im, rect, 400, 5, GrabCutSeed::kRectThenColour).data == by_rect.data);
+  // A colour-seeded rectangle with nothing rare in it finds no object.
+  Image plain(100, 80, 3, 0.5f);
+  const Image none = grabcut_mask(plain, PixelBox{5, 5, 90, 70}, 400, 5, GrabCutSeed::kColour);
+  CHECK(*std::max_element(none.data.begin(), none.data.end()) == 0.f);
 }
