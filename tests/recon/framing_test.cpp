@@ -30,6 +30,16 @@ Image ellipse_image(int w, int h, double cx, double cy, double rx, double ry, co
   return im;
 }
 
+/// Paint the filled ellipse (centre cx, cy; radii rx, ry) in `colour` over an RGB image.
+void paint_ellipse(Image& im, double cx, double cy, double rx, double ry, const float colour[3]) {
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      const double u = (x + 0.5 - cx) / rx, v = (y + 0.5 - cy) / ry;
+      if (u * u + v * v <= 1.0)
+        for (int c = 0; c < 3; ++c) im.at(x, y, c) = colour[c];
+    }
+}
+
 /// IoU of the pixels over 0.5 of a 1-channel mask and the ellipse.
 double mask_iou(const Image& mask, double cx, double cy, double rx, double ry) {
   long inter = 0, uni = 0;
@@ -138,15 +148,8 @@ TEST_CASE("framing: GrabCut separates an object from a textured background, the 
       im.at(x, y, 2) = (dark ? 0.45f : 0.75f) + n;
     }
   const double cx = 110, cy = 95, rx = 45, ry = 35;
-  for (int y = 0; y < 180; ++y)
-    for (int x = 0; x < 240; ++x) {
-      const double u = (x + 0.5 - cx) / rx, v = (y + 0.5 - cy) / ry;
-      if (u * u + v * v <= 1.0) {
-        im.at(x, y, 0) = 0.85f;
-        im.at(x, y, 1) = 0.25f;
-        im.at(x, y, 2) = 0.1f;
-      }
-    }
+  const float orange[3] = {0.85f, 0.25f, 0.1f};
+  paint_ellipse(im, cx, cy, rx, ry, orange);
   const FramedInput f = frame_input(im, nullptr, FramingSettings{}, "textured");
   CHECK(f.mask_source == "grabcut");
   REQUIRE(f.warnings.size() == 1);
@@ -405,15 +408,8 @@ TEST_CASE("framing: GrabCut seeded by colour finds an object whose colour the ba
       im.at(x, y, 2) = static_cast<float>(0.05 + 0.15 * a * b + n);
     }
   const double cx = 200, cy = 90, rx = 16, ry = 12;
-  for (int y = 0; y < 224; ++y)
-    for (int x = 0; x < 320; ++x) {
-      const double u = (x + 0.5 - cx) / rx, v = (y + 0.5 - cy) / ry;
-      if (u * u + v * v <= 1.0) {
-        im.at(x, y, 0) = 0.55f;
-        im.at(x, y, 1) = 0.6f;
-        im.at(x, y, 2) = 0.8f;
-      }
-    }
+  const float grey_blue[3] = {0.55f, 0.6f, 0.8f};
+  paint_ellipse(im, cx, cy, rx, ry, grey_blue);
   const PixelBox rect{10, 7, 300, 210};  // the image minus 3%, as frame_input seeds it
   const Image by_colour = grabcut_mask(im, rect, 400, 5, GrabCutSeed::kColour);
   const Image by_rect = grabcut_mask(im, rect, 400, 5, GrabCutSeed::kRect);
