@@ -78,7 +78,7 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
     if (!refine && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-camera");
   for (const char* f : {"--refine-distance", "--refine-evals", "--refine-max-deg", "--refine-max-distance"})
     if (!local && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-local");
-  for (const char* f : {"--pose-model", "--flip-check", "--pose-distances", "--pose-tta"})
+  for (const char* f : {"--pose-model", "--photo-pose-model", "--flip-check", "--pose-distances", "--pose-tta"})
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
   if (dense && given("--no-follow")) throw InvalidInput("--no-follow applies to the adaptive extraction, not to --dense");
@@ -147,7 +147,7 @@ int fuse_views(const Reconstructor& rec, const std::vector<std::string>& inputs,
 
 std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
-    std::string input, out, model, pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto",
+    std::string input, out, model, pose_model, photo_pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto",
                 framing = "auto", box;
     std::string pose_distances = "off", pose_tta = "mirror";
     ReconSettings s;
@@ -162,6 +162,7 @@ std::function<int()> setup_recon(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   o->model = default_model_path("sdf.ckpt");
   o->pose_model = default_model_path("pose.ckpt");
+  o->photo_pose_model = default_model_path("pose_photo.ckpt");
   o->seg_model = default_model_path("seg.ckpt");
   app.add_option("input", o->input,
                  "an image (PNG/JPG/EXR/TIFF/BMP, any size and aspect ratio, grey, RGB or RGBA), a folder of images, "
@@ -178,6 +179,11 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "<sdfkit's folder>/../share/sdfkit/models)")
       ->capture_default_str();
   app.add_option("--pose-model", o->pose_model, "camera pose network model (used with --cam est; default: pose.ckpt there)")
+      ->capture_default_str();
+  app.add_option("--photo-pose-model", o->photo_pose_model,
+                 "pose network for images recon reframes (photos, any image not framed like a render; --cam est): "
+                 "trained on such crops, with a centre head (docs/recon.md). Default: pose_photo.ckpt of the model "
+                 "folder when it exists and --pose-model is not given; none = --pose-model for every image")
       ->capture_default_str();
   app.add_option("--segment", o->segment,
                  "without alpha or --mask: auto = a plain background detected from the image border, else the "
@@ -354,8 +360,18 @@ std::function<int()> setup_recon(CLI::App& app) {
     const bool sidecar = o->cam == "sidecar";
     Camera fixed_camera;
     if (!estimate && !sidecar) fixed_camera = read_camera(o->cam);
+    // The photo pose model: given, or the default one beside the default pose model (a pose model of one's own
+    // comes without it unless --photo-pose-model names one).
+    std::string photo_pose;
+    if (estimate && app.get_option("--photo-pose-model")->count() > 0) {
+      if (o->photo_pose_model != "none") photo_pose = o->photo_pose_model;
+    } else if (estimate && app.get_option("--pose-model")->count() == 0 && !o->photo_pose_model.empty() &&
+               fs::exists(o->photo_pose_model)) {
+      photo_pose = o->photo_pose_model;
+    }
     const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
-                                         estimate ? require_model_path(o->pose_model, "--pose-model") : std::string());
+                                         estimate ? require_model_path(o->pose_model, "--pose-model") : std::string(),
+                                         photo_pose);
     if (app.get_option("--threshold")->count() > 0 && rec->sdf().config().variant != SdfVariant::kBinary)
       throw InvalidInput("--threshold applies to a binary-variant model; " + o->model + " is " +
                          to_string(rec->sdf().config().variant) + " (its surface is the field's 0 level)");

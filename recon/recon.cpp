@@ -69,37 +69,41 @@ Image input_foreground(const Eigen::VectorXf& input) {
   return out;
 }
 
-Reconstructor::Reconstructor(std::unique_ptr<SdfNet> sdf, std::unique_ptr<PoseNet> pose)
-    : sdf_(std::move(sdf)), pose_(std::move(pose)) {
+Reconstructor::Reconstructor(std::unique_ptr<SdfNet> sdf, std::unique_ptr<PoseNet> pose,
+                             std::unique_ptr<PoseNet> photo_pose)
+    : sdf_(std::move(sdf)), pose_(std::move(pose)), photo_pose_(std::move(photo_pose)) {
   require(sdf_ != nullptr, "Reconstructor: an SDF network is required");
   require(sdf_->config().image_size == kNetImageSize, "Reconstructor: the SDF network must take 137 px inputs");
 }
 
 Reconstructor::~Reconstructor() = default;
 
-std::unique_ptr<Reconstructor> Reconstructor::load(const std::string& sdf_path, const std::string& pose_path) {
+std::unique_ptr<Reconstructor> Reconstructor::load(const std::string& sdf_path, const std::string& pose_path,
+                                                   const std::string& photo_pose_path) {
   auto sdf = load_sdf_model(sdf_path);
-  std::unique_ptr<PoseNet> pose;
+  std::unique_ptr<PoseNet> pose, photo_pose;
   if (!pose_path.empty()) pose = load_pose_model(pose_path);
-  return std::make_unique<Reconstructor>(std::move(sdf), std::move(pose));
+  if (!photo_pose_path.empty()) photo_pose = load_pose_model(photo_pose_path);
+  return std::make_unique<Reconstructor>(std::move(sdf), std::move(pose), std::move(photo_pose));
 }
 
 Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_check, double* flip_turn_deg,
-                                     bool mirror_tta) const {
+                                     bool mirror_tta, bool reframed) const {
   if (!pose_) throw InvalidInput("no pose model loaded: give the camera (--cam FILE) or a pose model");
+  PoseNet& net = reframed && photo_pose_ ? *photo_pose_ : *pose_;
   MatrixXfR images(1, input.size());
   images.row(0) = input.transpose();
   std::lock_guard<std::mutex> lock(pose_mutex_);
-  pose_->set_flip_check(flip_check);
-  pose_->set_mirror_tta(mirror_tta);
-  const PosePrediction p = pose_->predict(images);
+  net.set_flip_check(flip_check);
+  net.set_mirror_tta(mirror_tta);
+  const PosePrediction p = net.predict(images);
   if (flip_turn_deg) *flip_turn_deg = p.azimuth_shift.at(0);
   return p.cameras.at(0);
 }
 
 Camera Reconstructor::estimate_network_camera(const Eigen::VectorXf& input, const ReconSettings& settings,
-                                              double* flip_turn_deg) const {
-  const Camera c = estimate_camera(input, settings.flip_check, flip_turn_deg, settings.pose_mirror_tta);
+                                              double* flip_turn_deg, bool reframed) const {
+  const Camera c = estimate_camera(input, settings.flip_check, flip_turn_deg, settings.pose_mirror_tta, reframed);
   return settings.pose_distance_max > 0 ? distance_as_focal(c, settings.pose_distance_min, settings.pose_distance_max)
                                         : c;
 }
@@ -199,7 +203,7 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
   if (camera != nullptr) network_camera = given_network_camera(*camera, image, framed, what);
   const double prep = since(t0);
   ReconResult r = run_input(input, camera != nullptr ? &network_camera : nullptr, settings, what,
-                            settings.refine_rounds > 0 ? &silhouette : nullptr);
+                            settings.refine_rounds > 0 ? &silhouette : nullptr, framed.reframed);
   r.input_camera = camera_in_input(r.camera, framed, image.width, image.height);
   r.framing = std::move(framed);
   r.framing_fits = fits;
@@ -221,7 +225,7 @@ int Reconstructor::fit_framing(const Image& image, FramedInput& framed, Eigen::V
       crop = training_crop(given_network_camera(*camera, image, framed, what), framed, Vec3::Zero(), 1.0,
                            renders.distance_min, renders.distance_max, settings.framing.training);
     } else {
-      const Camera c = estimate_network_camera(input.head(3 * kNetImageSize * kNetImageSize), settings, nullptr);
+      const Camera c = estimate_network_camera(input.head(3 * kNetImageSize * kNetImageSize), settings, nullptr, true);
       Normalization shape;
       try {
         MeshStats st;
@@ -343,7 +347,7 @@ Mesh Reconstructor::reconstruct(const std::vector<ViewRef>& views, const ReconSe
 
 ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Camera* camera,
                                      const ReconSettings& settings, const std::string& what,
-                                     const Image* silhouette) const {
+                                     const Image* silhouette, bool reframed) const {
   constexpr Eigen::Index kPixels = kNetImageSize * kNetImageSize;
   require(full_input.size() == 3 * kPixels || full_input.size() == 4 * kPixels,
           what + ": network input must be 3 x 137 x 137 (RGB) or 4 x 137 x 137 (RGB + missing-data mask)");
@@ -360,9 +364,10 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
     r.camera = *camera;
     r.camera_estimated = false;
   } else {
-    r.camera = estimate_network_camera(input, settings, &r.flip_turn_deg);
+    r.camera = estimate_network_camera(input, settings, &r.flip_turn_deg, reframed);
     r.camera_estimated = true;
     r.pose_mirror_tta = settings.pose_mirror_tta;
+    r.photo_pose = reframed && photo_pose_ != nullptr;
     r.timings.pose = since(t);
   }
   r.initial_camera = r.camera;
@@ -456,13 +461,14 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
       r.timings.prepare += since(t);
       t = Clock::now();
       double turn = 0;
-      cam = estimate_network_camera(inputs[i], settings, &turn);
+      cam = estimate_network_camera(inputs[i], settings, &turn, framed[i].reframed);
       r.timings.pose += since(t);
       if (i == 0) r.flip_turn_deg = turn;
     }
     r.view_cameras.push_back(cam);
     r.view_input_cameras.push_back(camera_in_input(cam, framed[i], images[i].width, images[i].height));
     r.view_estimated.push_back(cameras[i] == nullptr);
+    r.view_photo_pose.push_back(cameras[i] == nullptr && framed[i].reframed && photo_pose_ != nullptr);
   }
   std::vector<ViewRef> views;
   for (size_t i = 0; i < images.size(); ++i) views.push_back({&inputs[i], r.view_cameras[i]});
@@ -472,6 +478,7 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
   r.input_camera = r.view_input_cameras[0];
   r.camera_estimated = r.view_estimated[0];
   r.pose_mirror_tta = r.camera_estimated && settings.pose_mirror_tta;
+  r.photo_pose = r.view_photo_pose[0];
   finish_result(r, st, settings, inputs[0]);
   r.framing = std::move(framed[0]);
   r.timings.total = since(t_all);

@@ -127,6 +127,7 @@ struct ReconResult {
   bool camera_estimated = false;
   double flip_turn_deg = 0;     ///< degrees the flip check turned the estimated camera about +y (0 = kept)
   bool pose_mirror_tta = false; ///< the estimated camera combines the mirrored input's reading
+  bool photo_pose = false;      ///< the camera was estimated by the photo pose network (a reframed input)
   Camera initial_camera;        ///< the estimated or given camera before refinement
   std::vector<CameraRefineResult> refinements;  ///< one per refinement round (empty when off)
   long evaluations = 0;         ///< field evaluations
@@ -138,6 +139,7 @@ struct ReconResult {
   std::vector<Camera> view_cameras;
   std::vector<Camera> view_input_cameras;  ///< the same as cameras of each input image
   std::vector<bool> view_estimated;        ///< whether each view's camera was estimated
+  std::vector<bool> view_photo_pose;       ///< whether the photo pose network estimated it
   ReconTimings timings;
   Image preview;                ///< RGB, 4 panels side by side (empty when settings.preview is false)
 };
@@ -152,14 +154,19 @@ Image input_foreground(const Eigen::VectorXf& input);
 /// Holds the networks; run() is thread-safe (the pose network is serialised by a mutex).
 class Reconstructor {
  public:
-  /// `pose` may be null: then every run needs a camera.
-  Reconstructor(std::unique_ptr<SdfNet> sdf, std::unique_ptr<PoseNet> pose);
+  /// `pose` may be null: then every run needs a camera. `photo_pose` (optional) estimates the camera of reframed
+  /// inputs instead of `pose` (a pose network trained on images framed as recon frames a photo, with a centre head:
+  /// data/models/pose_photo.md); inputs framed like the renders keep `pose`.
+  Reconstructor(std::unique_ptr<SdfNet> sdf, std::unique_ptr<PoseNet> pose,
+                std::unique_ptr<PoseNet> photo_pose = nullptr);
   ~Reconstructor();
-  /// Load both models (pose_path may be empty). IoError naming the file on failure.
-  static std::unique_ptr<Reconstructor> load(const std::string& sdf_path, const std::string& pose_path);
+  /// Load the models (pose_path and photo_pose_path may be empty). IoError naming the file on failure.
+  static std::unique_ptr<Reconstructor> load(const std::string& sdf_path, const std::string& pose_path,
+                                             const std::string& photo_pose_path = "");
 
   [[nodiscard]] const SdfNet& sdf() const { return *sdf_; }
   [[nodiscard]] bool has_pose() const { return pose_ != nullptr; }
+  [[nodiscard]] bool has_photo_pose() const { return photo_pose_ != nullptr; }
   /// The safety factor the adaptive extraction uses: settings.safety, or the model's default when it is 0.
   [[nodiscard]] double extraction_safety(const ReconSettings& settings) const;
   /// The occupancy threshold a binary-variant model is extracted at (settings.threshold; InvalidInput outside
@@ -179,8 +186,10 @@ class Reconstructor {
   /// Same from a prepared network input: 3 x 137 x 137 RGB, or 4 x 137 x 137 with the missing-data mask (the pose
   /// network, camera refinement and the preview read the RGB channels). `silhouette` (137 x 137 coverage: the framed alpha in run()) is
   /// the mask camera refinement aligns to; null = input_foreground(input).
+  /// `reframed`: the input is a crop recon made of a larger image (run() passes FramedInput::reframed): its camera
+  /// is estimated by the photo pose network when one is loaded.
   ReconResult run_input(const Eigen::VectorXf& input, const Camera* camera, const ReconSettings& settings,
-                        const std::string& what, const Image* silhouette = nullptr) const;
+                        const std::string& what, const Image* silhouette = nullptr, bool reframed = false) const;
   /// Multi-view reconstruction (DISN's multi-view application): several images of one object, each framed as run()
   /// frames one, each with its camera (`cameras[i]`, a camera of image i; null = estimated by the pose network, whose
   /// cameras all refer to the canonical object frame), and one mesh extracted from the mean of the views' fields
@@ -190,9 +199,10 @@ class Reconstructor {
                         const ReconSettings& settings, const std::vector<std::string>& what) const;
   /// Camera estimate of a network input (InvalidInput when no pose network is loaded), with the pose model's flip
   /// check at `flip_check` (ReconSettings::flip_check) and its mirror TTA when `mirror_tta`
-  /// (ReconSettings::pose_mirror_tta); *flip_turn_deg (may be null) gets the check's turn.
+  /// (ReconSettings::pose_mirror_tta); *flip_turn_deg (may be null) gets the check's turn. `reframed`: read by the
+  /// photo pose network when one is loaded.
   Camera estimate_camera(const Eigen::VectorXf& input, double flip_check = kDefaultFlipCheck,
-                         double* flip_turn_deg = nullptr, bool mirror_tta = true) const;
+                         double* flip_turn_deg = nullptr, bool mirror_tta = true, bool reframed = false) const;
 
  private:
   struct MeshStats;
@@ -203,8 +213,8 @@ class Reconstructor {
                   const std::function<Eigen::VectorXf(const FramedInput&)>& make_input) const;
   /// The camera run_input and run_views use when none is given: estimate_camera with the settings' flip check and
   /// TTA, its distance read as a focal length when settings.pose_distance_max > 0 (distance_as_focal).
-  Camera estimate_network_camera(const Eigen::VectorXf& input, const ReconSettings& settings,
-                                 double* flip_turn_deg) const;
+  Camera estimate_network_camera(const Eigen::VectorXf& input, const ReconSettings& settings, double* flip_turn_deg,
+                                 bool reframed) const;
   struct ViewRef {
     const Eigen::VectorXf* input;  ///< network input (3 or 4 x 137 x 137)
     Camera camera;                 ///< its camera of the 137 px network image
@@ -219,8 +229,8 @@ class Reconstructor {
   Mesh reconstruct(const std::vector<ViewRef>& views, const ReconSettings& settings, int resolution,
                    const std::string& what, MeshStats& stats) const;
   std::unique_ptr<SdfNet> sdf_;
-  std::unique_ptr<PoseNet> pose_;
-  mutable std::mutex pose_mutex_;
+  std::unique_ptr<PoseNet> pose_, photo_pose_;
+  mutable std::mutex pose_mutex_;  ///< serialises both pose networks
 };
 
 /// The preview: input | render of `mesh` from `camera` | two more views (azimuth +120 and +240 degrees, slightly

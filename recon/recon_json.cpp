@@ -28,6 +28,7 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
   if (r.camera_estimated) {
     j["flip_turn_deg"] = r.flip_turn_deg;
     j["pose_tta"] = r.pose_mirror_tta ? "mirror" : "none";
+    j["pose_model"] = r.photo_pose ? "photo" : "main";
   }
   if (!r.refinements.empty()) {
     Json rounds = Json::array();
@@ -46,11 +47,14 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
   if (!r.view_cameras.empty()) {
     require(paths.views.size() == r.view_cameras.size(), "recon_result_json: one image name per view");
     Json views = Json::array();
-    for (size_t i = 0; i < r.view_cameras.size(); ++i)
-      views.push_back({{"input", paths.views[i]},
-                       {"camera", camera_to_json(r.view_input_cameras[i])},
-                       {"network_camera", camera_to_json(r.view_cameras[i])},
-                       {"camera_source", r.view_estimated[i] ? "estimated" : "given"}});
+    for (size_t i = 0; i < r.view_cameras.size(); ++i) {
+      Json v = {{"input", paths.views[i]},
+                {"camera", camera_to_json(r.view_input_cameras[i])},
+                {"network_camera", camera_to_json(r.view_cameras[i])},
+                {"camera_source", r.view_estimated[i] ? "estimated" : "given"}};
+      if (r.view_estimated[i]) v["pose_model"] = r.view_photo_pose[i] ? "photo" : "main";
+      views.push_back(std::move(v));
+    }
     j["views"] = views;
   }
   j["evaluations"] = r.evaluations;

@@ -55,6 +55,8 @@ TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with th
   CHECK(fs::exists((dir / "est.preview.png").string()));
   const Json j = Json::parse(r.out);
   CHECK(j["camera_source"] == "estimated");
+  CHECK(j["pose_model"] == "main");  // a render framed like the training renders: not reframed, the main pose model
+  CHECK_FALSE(j["framing"]["reframed"].get<bool>());
   CHECK(j["evaluations"].get<long>() > 0);
   CHECK(j["seconds"]["total"].get<double>() > 0);
   // The pose model's flip check: off, no turn; on, the estimate is the 6D head's camera turned by the reported
@@ -247,6 +249,7 @@ TEST_CASE("recon of a non-square photo-like image: plain background found, refra
   CHECK(j["framing"]["mask_source"] == "plain-background");
   CHECK(j["framing"]["reframed"].get<bool>());
   CHECK(j["framing"]["fit_rounds"] == 1);  // the default --framing-fit
+  CHECK(j["pose_model"] == "photo");       // a reframed image: the photo pose model (data/models/pose_photo.ckpt)
   CHECK(j["warnings"].empty());
   const Camera cam = camera_from_json(j["camera"]), net = camera_from_json(j["network_camera"]);
   CHECK(cam.width == 300);
@@ -299,6 +302,18 @@ TEST_CASE("recon of a non-square photo-like image: plain background found, refra
   CHECK(jt["framing"]["crop"]["side"].get<double>() == doctest::Approx(137).epsilon(1e-9));
   CHECK((camera_from_json(jt["network_camera"]).K - example.K).cwiseAbs().maxCoeff() < 1e-9);
   CHECK(run("recon " + in + " -o " + (dir / "comp_bad.stl").string() + " --framing-fit -1").code != 0);
+  // --photo-pose-model none, or a pose model of one's own: the main pose model reads the reframed image too.
+  for (const std::string& flag :
+       {std::string("--photo-pose-model none"), "--pose-model " + kSource + "/data/models/pose.ckpt"}) {
+    CAPTURE(flag);
+    const Run rm = run("recon " + in + " -o " + (dir / "comp_m.stl").string() + " --res 33 --json " + flag);
+    REQUIRE_MESSAGE(rm.code == 0, rm.err);
+    CHECK(Json::parse(rm.out)["pose_model"] == "main");
+  }
+  const Run rg = run("recon " + in + " -o " + (dir / "comp_g.stl").string() + " --cam " + cam_path +
+                     " --photo-pose-model none");
+  CHECK(rg.code == 1);
+  CHECK(rg.err.find("--photo-pose-model applies with --cam est") != std::string::npos);
   const Run rn = run("recon " + in + " -o " + (dir / "comp_bad.stl").string() + " --framing none --framing-fit 1");
   CHECK(rn.code == 1);
   CHECK(rn.err.find("--framing-fit") != std::string::npos);
@@ -375,7 +390,17 @@ TEST_CASE("recon --fuse: views of one object with their cameras give one mesh, i
   REQUIRE_MESSAGE(r.code == 0, r.err);
   const Json j = Json::parse(r.out);
   REQUIRE(j.at("views").size() == 4);
-  for (const Json& v : j.at("views")) CHECK(v.at("camera_source") == "given");
+  for (const Json& v : j.at("views")) {
+    CHECK(v.at("camera_source") == "given");
+    CHECK_FALSE(v.contains("pose_model"));
+  }
+  // Estimated: each view by the main pose model (renders framed like the training renders are not reframed).
+  r = run("recon " + views + " -o " + (dir / "fused_est.obj").string() + " --fuse --res 33 --json --no-preview");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  for (const Json& v : Json::parse(r.out).at("views")) {
+    CHECK(v.at("camera_source") == "estimated");
+    CHECK(v.at("pose_model") == "main");
+  }
   CHECK(j.at("views")[1].at("input").get<std::string>().find("01.png") != std::string::npos);
   CHECK(fs::exists(dir / "fused.preview.png"));
   CHECK(is_closed_oriented(read_mesh(fused)));

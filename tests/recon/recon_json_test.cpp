@@ -30,6 +30,8 @@ ReconResult made_result() {
   r.input_camera = camera_in_input(r.camera, r.framing, 400, 300);
   r.camera_estimated = true;
   r.pose_mirror_tta = true;
+  r.photo_pose = true;
+  r.framing_fits = 1;
   r.flip_turn_deg = 180;
   CameraRefineResult round;
   round.iou_before = 0.5;
@@ -65,10 +67,11 @@ TEST_CASE("recon_result_json: every key of the recon record, cameras that read b
   s.resolution = 65;
   const Json j = recon_result_json(r, s, {"in.png", "out/in.obj", "out/in.preview.png", "out/in.mask.png", {}}, 400, 300);
   for (const char* key : {"input", "mesh", "preview", "mask", "framing", "warnings", "camera", "network_camera",
-                          "camera_source", "flip_turn_deg", "pose_tta", "camera_refinement", "evaluations", "vertices", "faces",
-                          "components_removed", "resolution", "extraction", "threshold", "mirror_tta", "seconds"})
+                          "camera_source", "flip_turn_deg", "pose_tta", "pose_model", "camera_refinement", "evaluations",
+                          "vertices", "faces", "components_removed", "resolution", "extraction", "threshold",
+                          "mirror_tta", "seconds"})
     CHECK_MESSAGE(j.contains(key), key);
-  CHECK(j.size() == 21);
+  CHECK(j.size() == 22);
   CHECK(j["threshold"] == 0.4);
   CHECK(j["mirror_tta"] == true);
   CHECK(j["input"] == "in.png");
@@ -85,6 +88,8 @@ TEST_CASE("recon_result_json: every key of the recon record, cameras that read b
   CHECK(j["camera_source"] == "estimated");
   CHECK(j["flip_turn_deg"] == 180.0);
   CHECK(j["pose_tta"] == "mirror");
+  CHECK(j["pose_model"] == "photo");
+  CHECK(j["framing"]["fit_rounds"] == 1);
   CHECK(j["evaluations"] == 12345);
   CHECK(j["vertices"] == r.mesh.num_vertices());
   CHECK(j["faces"] == r.mesh.num_faces());
@@ -124,7 +129,7 @@ TEST_CASE("recon_result_json: a given camera, no refinement, no preview and the 
   CHECK(j["camera_source"] == "given");
   CHECK(j["extraction"] == "dense");
   CHECK(j["mirror_tta"] == false);
-  for (const char* key : {"preview", "mask", "flip_turn_deg", "pose_tta", "camera_refinement", "threshold"})
+  for (const char* key : {"preview", "mask", "flip_turn_deg", "pose_tta", "pose_model", "camera_refinement", "threshold"})
     CHECK_MESSAGE(!j.contains(key), key);
   CHECK(j.size() == 15);
 }
