@@ -193,6 +193,25 @@ Image resample_crop(const Image& rgb, const Image& alpha, double x0, double y0, 
   return out;
 }
 
+/// GrabCut's rectangle: --box, else the image minus a 3% margin. InvalidInput when too small to segment.
+PixelBox grabcut_rect(const FramingSettings& st, int W, int H, const std::string& what) {
+  PixelBox rect;
+  if (st.box) {
+    rect = *st.box;
+  } else {
+    const int mx = std::max(1, static_cast<int>(std::lround(0.03 * W)));
+    const int my = std::max(1, static_cast<int>(std::lround(0.03 * H)));
+    rect = {mx, my, W - 2 * mx, H - 2 * my};
+  }
+  if (rect.w < 2 || rect.h < 2)
+    throw InvalidInput(what + ": image too small to segment (" + std::to_string(W) + "x" + std::to_string(H) + ")");
+  return rect;
+}
+
+bool any_over_half(const Image& mask) {
+  return std::any_of(mask.data.begin(), mask.data.end(), [](float v) { return v > 0.5f; });
+}
+
 /// The input's colours as the framing reads them (finite, in [0, 1]): composited on the training background, or
 /// `straight` = the colour channels under the alpha as they are (an input whose alpha is the mask).
 Image framing_rgb(const Image& image, bool straight) {
@@ -218,7 +237,12 @@ Image crop_network_image(const Image& rgb, const FramedInput& f) {
 
 }  // namespace
 
-Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int iterations, GrabCutSeed seed) {
+Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int iterations, GrabCutSeed seed,
+                   const Image* seed_mask) {
+  require(seed != GrabCutSeed::kMask ||
+              (seed_mask != nullptr && seed_mask->width == rgb.width && seed_mask->height == rgb.height &&
+               seed_mask->channels == 1),
+          "grabcut_mask: the mask seed needs a 1-channel mask of the image's size");
   const int W = rgb.width, H = rgb.height;
   const double scale = std::min(1.0, static_cast<double>(max_side) / std::max(W, H));
   cv::Mat full(H, W, CV_8UC3);
@@ -237,7 +261,23 @@ Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int ite
              std::max(1, static_cast<int>(std::ceil(rect.w * scale))), std::max(1, static_cast<int>(std::ceil(rect.h * scale))));
   r &= cv::Rect(0, 0, small.cols, small.rows);
   cv::Mat labels(small.size(), CV_8UC1, cv::Scalar(cv::GC_BGD)), bgd, fgd;
-  if (seed != GrabCutSeed::kColour) {
+  if (seed == GrabCutSeed::kMask) {
+    // Inside the rectangle: the mask's object (over 0.5 at the pixel's centre in the input) probably object, the
+    // rest probably background; outside it background. No object in the seed: no object.
+    bool any = false;
+    for (int y = r.y; y < r.y + r.height; ++y)
+      for (int x = r.x; x < r.x + r.width; ++x) {
+        const int X = std::min(W - 1, static_cast<int>((x + 0.5) / scale));
+        const int Y = std::min(H - 1, static_cast<int>((y + 0.5) / scale));
+        const bool in = seed_mask->at(X, Y) > 0.5f;
+        labels.at<uchar>(y, x) = in ? cv::GC_PR_FGD : cv::GC_PR_BGD;
+        any = any || in;
+      }
+    if (any) {
+      cv::theRNG().state = 0x5dfc0de5eedULL;
+      cv::grabCut(small, labels, r, bgd, fgd, iterations, cv::GC_INIT_WITH_MASK);
+    }
+  } else if (seed != GrabCutSeed::kColour) {
     cv::theRNG().state = 0x5dfc0de5eedULL;
     cv::grabCut(small, labels, r, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
   }
@@ -462,20 +502,27 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
         f.mask.data[i] = static_cast<float>(std::clamp(v, 0.0, 1.0));
       }
       f.mask_source = "net";
-      if (st.segment == Segmentation::kAuto)
+      if (st.segment == Segmentation::kAuto) {
+        // GrabCut seeded with the network's mask: the network tells which object the image is about, GrabCut
+        // follows its edges in this image's colours. When GrabCut keeps nothing of it, the rectangle's GrabCut
+        // (then by colour); when that finds nothing either, the network's mask as it is.
+        const PixelBox rect = grabcut_rect(st, W, H, what);
+        Image cut = grabcut_mask(rgb, rect, st.grabcut_max_side, st.grabcut_iterations, GrabCutSeed::kMask, &f.mask);
+        if (any_over_half(cut)) {
+          f.mask = std::move(cut);
+          f.mask_source = "net+grabcut";
+        } else if (cut = grabcut_mask(rgb, rect, st.grabcut_max_side, st.grabcut_iterations,
+                                      GrabCutSeed::kRectThenColour);
+                   any_over_half(cut)) {
+          f.mask = std::move(cut);
+          f.mask_source = "grabcut";
+        }
         f.warnings.push_back("the background is not plain (" + fmt(100 * border.plain_share, 0) +
-                             "% of the border is one colour): the object was segmented by the segmenter network; "
-                             "check the mask");
-    } else {
-      PixelBox rect;
-      if (st.box) {
-        rect = *st.box;
-      } else {
-        const int mx = std::max(1, static_cast<int>(std::lround(0.03 * W)));
-        const int my = std::max(1, static_cast<int>(std::lround(0.03 * H)));
-        rect = {mx, my, W - 2 * mx, H - 2 * my};
+                             "% of the border is one colour): the object was segmented by the segmenter network and "
+                             "GrabCut; check the mask");
       }
-      if (rect.w < 2 || rect.h < 2) throw InvalidInput(what + ": image too small to segment (" + std::to_string(W) + "x" + std::to_string(H) + ")");
+    } else {
+      const PixelBox rect = grabcut_rect(st, W, H, what);
       f.mask = grabcut_mask(rgb, rect, st.grabcut_max_side, st.grabcut_iterations, GrabCutSeed::kRectThenColour);
       f.mask_source = "grabcut";
       if (st.segment == Segmentation::kAuto)

@@ -20,8 +20,8 @@ namespace sdfkit {
 
 /// How the object is told from the background when the input has no alpha and no mask is given.
 enum class Segmentation {
-  kAuto,     ///< a plain background (detected from the image border) when there is one, else the segmenter network
-             ///< when FramingSettings::segmenter is set, else GrabCut
+  kAuto,     ///< a plain background (detected from the image border) when there is one, else the segmenter network's
+             ///< mask refined by GrabCut (seeded with it) when FramingSettings::segmenter is set, else GrabCut
   kNone,     ///< none: the image is used as it is (its non-white pixels are the object)
   kGrabCut,  ///< OpenCV's GrabCut seeded from the border (or from FramingSettings::box)
   kNet,      ///< the segmenter network (FramingSettings::segmenter, nets/seg_net.h)
@@ -85,7 +85,7 @@ struct FramingSettings {
   int grabcut_max_side = 400;
   int grabcut_iterations = 5;
   /// The segmenter network (`recon --segment net`, nets/seg_net.h predict_foreground): the foreground probability
-  /// of every pixel of an RGB image (1 channel, the image's size). Used by kNet, and by kAuto instead of GrabCut
+  /// of every pixel of an RGB image (1 channel, the image's size). Used by kNet, and by kAuto to seed GrabCut
   /// when set. Called from several threads at once when recon runs images in parallel. Empty = no network.
   std::function<Image(const Image& rgb)> segmenter;
   /// The network's probability p becomes the coverage clamp((p - lo) / (hi - lo), 0, 1): over 0.5 exactly where
@@ -96,7 +96,7 @@ struct FramingSettings {
 struct FramedInput {
   Image image;      ///< 137 x 137 RGBA: the crop, object alpha = mask (composited on white by network_image)
   Image mask;       ///< input size, 1 channel: object coverage in [0, 1] (what was used)
-  std::string mask_source;  ///< "alpha", "mask", "plain-background", "grabcut", "net", "none"
+  std::string mask_source;  ///< "alpha", "mask", "plain-background", "grabcut", "net", "net+grabcut", "none"
   double x0 = 0, y0 = 0, side = 0;  ///< the crop in input pixel coordinates
   bool reframed = false;            ///< false: the whole (square-padded) image
   PixelBox object_box;              ///< the object's box in input pixels
@@ -147,12 +147,16 @@ enum class GrabCutSeed {
                     ///< outside it (under 0.1% of the outside pixels) probably object, the rest probably background
   kRectThenColour,  ///< kRect, and kColour when it leaves no object (its models can converge to "all background"
                     ///< when the object is a small part of a busy rectangle); what frame_input uses
+  kMask,            ///< outside the rectangle background; inside it, the pixels over 0.5 in a given mask (the
+                    ///< segmenter network's) probably object, the rest probably background
 };
 
 /// OpenCV's GrabCut on `rgb` shrunk to at most max_side pixels on its longer side, seeded with `rect` (input pixels)
 /// as `seed` says; the object's coverage (0 or 1, interpolated where shrunk) at the input's size. Its k-means
 /// initialisation draws from cv::theRNG(), which is seeded here: the same image gives the same mask.
-Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int iterations, GrabCutSeed seed);
+/// `seed_mask`: the mask of GrabCutSeed::kMask (1 channel, the image's size; ignored otherwise).
+Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int iterations, GrabCutSeed seed,
+                   const Image* seed_mask = nullptr);
 
 /// Coverage of the object in a plain-background image: 0 where every channel is within `tolerance` of
 /// `background`, rising to 1 at twice that distance. 1 channel, the image's size.

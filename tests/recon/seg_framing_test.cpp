@@ -47,21 +47,70 @@ TEST_CASE("recon framing with the segmenter: net and auto use it, the ramp keeps
   FramingSettings st;
   st.segmenter = disc_probability;
   for (const Segmentation s : {Segmentation::kNet, Segmentation::kAuto}) {
+    CAPTURE(segmentation_name(s));
     st.segment = s;
     const FramedInput f = frame_input(photo, nullptr, st, "photo.png");
-    CHECK(f.mask_source == "net");
     CHECK(f.mask.at(100, 60) == 1.0f);
-    CHECK(f.mask.at(100 + 25, 60) == doctest::Approx(0.25));  // (0.4 - 0.3) / 0.4, next to the disc: kept
-    CHECK(f.mask.at(100 + 27, 60) == 0.0f);                   // soft, but not touching the disc: a speck
     CHECK(f.mask.at(5, 5) == 0.0f);
-    // The disc's box: 49 px around (100, 60).
-    CHECK(f.object_box.x == 76);
-    CHECK(f.object_box.w == 49);
     CHECK(f.reframed);
     const bool warned = std::any_of(f.warnings.begin(), f.warnings.end(),
                                     [](const std::string& w) { return w.find("segmenter network") != std::string::npos; });
     CHECK(warned == (s == Segmentation::kAuto));
+    if (s == Segmentation::kNet) {  // the network's mask as it is
+      CHECK(f.mask_source == "net");
+      CHECK(f.mask.at(100 + 25, 60) == doctest::Approx(0.25));  // (0.4 - 0.3) / 0.4, next to the disc: kept
+      CHECK(f.mask.at(100 + 27, 60) == 0.0f);                   // soft, but not touching the disc: a speck
+      // The disc's box: 49 px around (100, 60).
+      CHECK(f.object_box.x == 76);
+      CHECK(f.object_box.w == 49);
+    } else {  // auto: GrabCut seeded with it keeps the disc
+      CHECK(f.mask_source == "net+grabcut");
+      CHECK(std::abs(f.object_box.x - 76) <= 2);
+      CHECK(std::abs(f.object_box.w - 49) <= 3);
+    }
   }
+  // A rough network (a square 1.6 times the disc's size): --segment net keeps the square, auto's GrabCut cuts it
+  // down to the red disc, whose colours differ from the noise around it.
+  st.segmenter = [](const Image& rgb) {
+    Image p(rgb.width, rgb.height, 1, 0.1f);
+    for (int y = 20; y < 100; ++y)
+      for (int x = 60; x < 140; ++x) p.at(x, y) = 0.9f;
+    return p;
+  };
+  const auto disc_iou = [](const Image& m) {
+    long inter = 0, uni = 0;
+    for (int y = 0; y < m.height; ++y)
+      for (int x = 0; x < m.width; ++x) {
+        const bool a = m.at(x, y) > 0.5f, b = (x - 100) * (x - 100) + (y - 60) * (y - 60) < 25 * 25;
+        inter += a && b;
+        uni += a || b;
+      }
+    return static_cast<double>(inter) / static_cast<double>(uni);
+  };
+  st.segment = Segmentation::kNet;
+  CHECK(disc_iou(frame_input(photo, nullptr, st, "photo.png").mask) < 0.5);
+  st.segment = Segmentation::kAuto;
+  const FramedInput refined = frame_input(photo, nullptr, st, "photo.png");
+  CHECK(refined.mask_source == "net+grabcut");
+  CHECK(disc_iou(refined.mask) > 0.9);
+  // A network that sees nothing: auto falls back to GrabCut from the rectangle (--segment grabcut's mask).
+  Image textured = photo;  // on a smooth texture GrabCut's rectangle finds the disc
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x)
+      if ((x - 100) * (x - 100) + (y - 60) * (y - 60) >= 25 * 25) {
+        textured.at(x, y, 0) = 0.2f + 0.1f * static_cast<float>(std::sin(x / 7.0));
+        textured.at(x, y, 1) = 0.5f + 0.2f * static_cast<float>(std::cos(y / 5.0));
+        textured.at(x, y, 2) = 0.6f;
+      }
+  st.segmenter = [](const Image& rgb) { return Image(rgb.width, rgb.height, 1, 0.1f); };
+  const FramedInput fallback = frame_input(textured, nullptr, st, "textured.png");
+  FramingSettings gc;
+  gc.segment = Segmentation::kGrabCut;
+  const FramedInput by_grabcut = frame_input(textured, nullptr, gc, "textured.png");
+  CHECK(fallback.mask_source == "grabcut");
+  CHECK(fallback.mask.data == by_grabcut.mask.data);
+  CHECK(disc_iou(fallback.mask) > 0.8);
+  st.segmenter = disc_probability;
   // A plain background is still found without the network in auto mode.
   Image plain(160, 120, 3, 1.0f);
   for (int y = 40; y < 80; ++y)
