@@ -450,9 +450,11 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
     auto t = Clock::now();
     framed[i] = frame_input(images[i], nullptr, settings.framing, what[i]);
     inputs[i] = network_image(framed[i].image);
-    if (framed[i].reframed)
-      fit_framing(images[i], framed[i], inputs[i], cameras[i], settings, what[i],
-                  [](const FramedInput& f) { return network_image(f.image); });
+    if (framed[i].reframed) {
+      const int fits = fit_framing(images[i], framed[i], inputs[i], cameras[i], settings, what[i],
+                                   [](const FramedInput& f) { return network_image(f.image); });
+      if (i == 0) r.framing_fits = fits;  // the result's framing is the first view's
+    }
     Camera cam;
     if (cameras[i] != nullptr) {
       cam = given_network_camera(*cameras[i], images[i], framed[i], what[i]);

@@ -319,6 +319,12 @@ TEST_CASE("Reconstructor: fitting the framing with a given camera recovers the r
   CHECK(differing(fitted) < 0.03 * 3 * disc_px);
   CHECK(differing(plain) > 0.3 * 3 * disc_px);
 
+  // Several views (--fuse): each view's crop is fitted alike.
+  const ReconResult fused = rb.run_views({canvas, canvas}, {&canvas_cam, &canvas_cam}, s, {"a", "b"});
+  CHECK(fused.framing_fits == 1);
+  CHECK(fused.framing.side == doctest::Approx(137 * a).epsilon(1e-9));
+  for (const Camera& c : fused.view_cameras) CHECK((c.K - cam.K).cwiseAbs().maxCoeff() < 1e-9);
+
   s.framing_fit_rounds = -1;
   CHECK_THROWS_AS((void)rb.run(canvas, nullptr, &canvas_cam, s, "canvas"), InvalidInput);
 }
