@@ -260,7 +260,16 @@ Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int ite
   cv::Rect r(static_cast<int>(std::floor(rect.x * scale)), static_cast<int>(std::floor(rect.y * scale)),
              std::max(1, static_cast<int>(std::ceil(rect.w * scale))), std::max(1, static_cast<int>(std::ceil(rect.h * scale))));
   r &= cv::Rect(0, 0, small.cols, small.rows);
+  require(r.width > 0 && r.height > 0, "grabcut_mask: the rectangle lies outside the image");
   cv::Mat labels(small.size(), CV_8UC1, cv::Scalar(cv::GC_BGD)), bgd, fgd;
+  // GrabCut from fresh colour models: from the rectangle, or from the labels set inside it.
+  const auto grabcut = [&](int mode) {
+    bgd.release();
+    fgd.release();
+    cv::theRNG().state = 0x5dfc0de5eedULL;
+    cv::grabCut(small, labels, r, bgd, fgd, iterations, mode);
+  };
+  const auto is_object = [](uchar l) { return l == cv::GC_FGD || l == cv::GC_PR_FGD; };
   if (seed == GrabCutSeed::kMask) {
     // Inside the rectangle: the mask's object (over 0.5 at the pixel's centre in the input) probably object, the
     // rest probably background; outside it background. No object in the seed: no object.
@@ -273,19 +282,14 @@ Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int ite
         labels.at<uchar>(y, x) = in ? cv::GC_PR_FGD : cv::GC_PR_BGD;
         any = any || in;
       }
-    if (any) {
-      cv::theRNG().state = 0x5dfc0de5eedULL;
-      cv::grabCut(small, labels, r, bgd, fgd, iterations, cv::GC_INIT_WITH_MASK);
-    }
+    if (any) grabcut(cv::GC_INIT_WITH_MASK);
   } else if (seed != GrabCutSeed::kColour) {
-    cv::theRNG().state = 0x5dfc0de5eedULL;
-    cv::grabCut(small, labels, r, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
+    grabcut(cv::GC_INIT_WITH_RECT);
   }
-  require(r.width > 0 && r.height > 0, "grabcut_mask: the rectangle lies outside the image");
   const auto any_foreground = [&] {
     for (int y = 0; y < labels.rows; ++y)
       for (int x = 0; x < labels.cols; ++x)
-        if (labels.at<uchar>(y, x) == cv::GC_FGD || labels.at<uchar>(y, x) == cv::GC_PR_FGD) return true;
+        if (is_object(labels.at<uchar>(y, x))) return true;
     return false;
   };
   if (seed == GrabCutSeed::kColour || (seed == GrabCutSeed::kRectThenColour && !any_foreground())) {
@@ -312,19 +316,11 @@ Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int ite
         labels.at<uchar>(y, x) = rare ? cv::GC_PR_FGD : cv::GC_PR_BGD;
         seeded = seeded || rare;
       }
-    if (seeded) {
-      bgd.release();
-      fgd.release();
-      cv::theRNG().state = 0x5dfc0de5eedULL;
-      cv::grabCut(small, labels, r, bgd, fgd, iterations, cv::GC_INIT_WITH_MASK);
-    }
+    if (seeded) grabcut(cv::GC_INIT_WITH_MASK);
   }
   cv::Mat fg(small.size(), CV_32FC1);
   for (int y = 0; y < small.rows; ++y)
-    for (int x = 0; x < small.cols; ++x) {
-      const uchar l = labels.at<uchar>(y, x);
-      fg.at<float>(y, x) = (l == cv::GC_FGD || l == cv::GC_PR_FGD) ? 1.f : 0.f;
-    }
+    for (int x = 0; x < small.cols; ++x) fg.at<float>(y, x) = is_object(labels.at<uchar>(y, x)) ? 1.f : 0.f;
   cv::Mat up;
   if (scale < 1.0)
     cv::resize(fg, up, cv::Size(W, H), 0, 0, cv::INTER_LINEAR);

@@ -162,16 +162,14 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
                        std::to_string(image.height));
   check_settings(settings, what);
   FramedInput framed = frame_input(image, mask, settings.framing, what);
-  Image missing_channel;
-  if (missing != nullptr) {
+  Image missing_channel;  // the missing-data mask's alpha, else its first channel
+  if (missing != nullptr && missing->channels == 1) {
     missing_channel = *missing;
-    if (missing_channel.channels != 1) {  // alpha, else the first channel
-      Image c(missing->width, missing->height, 1);
-      const int src = missing->channels == 2 || missing->channels == 4 ? missing->channels - 1 : 0;
-      for (int y = 0; y < missing->height; ++y)
-        for (int x = 0; x < missing->width; ++x) c.at(x, y) = missing->at(x, y, src);
-      missing_channel = std::move(c);
-    }
+  } else if (missing != nullptr) {
+    missing_channel = Image(missing->width, missing->height, 1);
+    const int src = missing->channels == 2 || missing->channels == 4 ? missing->channels - 1 : 0;
+    for (int y = 0; y < missing->height; ++y)
+      for (int x = 0; x < missing->width; ++x) missing_channel.at(x, y) = missing->at(x, y, src);
   }
   // The network input of the framing: RGB, plus the missing-data mask taken through the same crop when given.
   const auto make_input = [&](const FramedInput& f) {
