@@ -11,6 +11,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <iomanip>
 #include <iostream>
 
 namespace sdfkit::app {
@@ -21,7 +22,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     std::string model, data, split = "test";
     PoseEvalSettings e;
     bool json = false, symmetry = false;
-    std::string pose_tta = "mirror";
+    std::string pose_tta = "mirror", per_image;
     double symmetry_tol = 0.01;
     double flip_check = kDefaultFlipCheck;
     double mirror_agree = kMirrorAgreeDeg;
@@ -71,6 +72,10 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                "median place; the true distance divided by the magnification, its principal point moved with the "
                "crop): how well the model reads recon's reframed inputs (a model without --centre-head answers with "
                "the image centre)");
+  app.add_option("--per-image", o->per_image,
+                 "also write every image's scores to this CSV file: id, view, d3D, d2D (and their -sym forms), the "
+                 "rotation error's angle and its nearest turn about the vertical axis (about +-180 for a whole-view "
+                 "flip), the true and estimated distances");
   app.add_flag("--json", o->json, "print JSON (overall + per category) instead of text");
   return [o, &app] {
     if (o->pose_tta != "mirror" && app.get_option("--mirror-agree")->count() > 0)
@@ -98,12 +103,25 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
         return group;
       };
     std::map<std::string, PoseScores> per;
+    std::vector<PoseItemScore> items;
     ProgressBar bar("eval-pose", 1);
-    const PoseScores all = evaluate_pose(*net, data, o->e, &per, [&](long done, long total) {
-      (void)total;
-      bar.update(done);
-    });
+    const PoseScores all = evaluate_pose(
+        *net, data, o->e, &per,
+        [&](long done, long total) {
+          (void)total;
+          bar.update(done);
+        },
+        o->per_image.empty() ? nullptr : &items);
     bar.finish();
+    if (!o->per_image.empty())
+      write_file_atomic(o->per_image, [&](std::ostream& f) {
+        f << "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est\n";
+        f << std::setprecision(6);
+        for (const PoseItemScore& it : items)
+          f << it.id << ',' << it.view << ',' << it.plain.d3d << ',' << it.plain.d2d << ',' << it.sym.d3d << ','
+            << it.sym.d2d << ',' << it.rotation_deg << ',' << it.azimuth_deg << ',' << it.distance << ','
+            << it.distance_est << '\n';
+      });
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o->json) {
       auto scores = [&](const PoseScores& v) {

@@ -3,6 +3,7 @@
 #include "core/error.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace sdfkit {
 
@@ -53,6 +54,14 @@ double pose_d3d(const Points& X, const Camera& predicted, const Camera& truth) {
 
 double pose_d2d(const Points& X, const Camera& predicted, const Camera& truth) {
   return pose_errors(X, predicted, truth).d2d;
+}
+
+std::pair<double, double> rotation_error_degrees(const Mat3& R_est, const Mat3& R_true) {
+  const Mat3 M = R_true.transpose() * R_est;  // R_est = R_true M
+  const double c = std::clamp((M.trace() - 1.0) / 2.0, -1.0, 1.0);
+  const double deg = 180.0 / 3.14159265358979323846;
+  // The R_y(phi) = [[cos, 0, sin], [0, 1, 0], [-sin, 0, cos]] nearest to M in the Frobenius norm.
+  return {std::acos(c) * deg, std::atan2(M(0, 2) - M(2, 0), M(0, 0) + M(2, 2)) * deg};
 }
 
 }  // namespace sdfkit

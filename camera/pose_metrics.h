@@ -5,6 +5,7 @@
 #include "camera/camera.h"
 #include "core/types.h"
 
+#include <utility>
 #include <vector>
 
 namespace sdfkit {
@@ -30,5 +31,10 @@ PoseErrors pose_errors_modulo(const Points& X, const Camera& predicted, const Ca
 /// The two numbers alone.
 double pose_d3d(const Points& X, const Camera& predicted, const Camera& truth);
 double pose_d2d(const Points& X, const Camera& predicted, const Camera& truth);
+
+/// The rotation error in degrees: {the geodesic angle between R_est and R_true, the turn phi about the object's
+/// vertical axis (+y) nearest to it}, with R_est ~ R_true R_y(phi) and phi in [-180, 180]; a whole-view flip reads
+/// about +-180. Both rotations world (object frame) -> camera.
+std::pair<double, double> rotation_error_degrees(const Mat3& R_est, const Mat3& R_true);
 
 }  // namespace sdfkit

@@ -10,10 +10,12 @@
 #include <cmath>
 #include <filesystem>
 #include <atomic>
+#include <tuple>
 #include <future>
 #include <mutex>
 #include <iomanip>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include <tbb/parallel_for.h>
@@ -222,10 +224,25 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   bs.points_per_shape = s.points;
   bs.seed = s.seed;
   const BatchSampler sampler(train, bs);
-  // Each training shape's symmetry group, once (read from its files by the caller's function), in parallel.
+  // Each training shape's symmetry group, once per shape (read from its files by the caller's function), in
+  // parallel; a split that lists a shape several times (to draw it more often) shares the first entry's group.
   std::vector<std::vector<Mat3>> groups(train.size());
-  if (s.symmetries)
-    tbb::parallel_for(size_t(0), train.size(), [&](size_t i) { groups[i] = s.symmetries(train.shape(i)); });
+  std::vector<size_t> unique;  // the first entry of each shape
+  {
+    std::map<std::string, size_t> first;
+    std::vector<size_t> source(train.size());
+    for (size_t i = 0; i < train.size(); ++i) {
+      const auto [it, fresh] = first.emplace(train.shape(i).dir, i);
+      source[i] = it->second;
+      if (fresh) unique.push_back(i);
+    }
+    if (s.symmetries) {
+      tbb::parallel_for(size_t(0), unique.size(),
+                        [&](size_t k) { groups[unique[k]] = s.symmetries(train.shape(unique[k])); });
+      for (size_t i = 0; i < train.size(); ++i)
+        if (source[i] != i) groups[i] = groups[source[i]];
+    }
+  }
 
   net.init(s.seed);
   if (!s.init.empty()) {
@@ -253,7 +270,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
 
   const std::string state_path = s.out + ".train.ckpt";
   PoseTrainResult result;
-  for (const auto& g : groups) result.symmetric_shapes += g.empty() ? 0 : 1;
+  for (const size_t i : unique) result.symmetric_shapes += groups[i].empty() ? 0 : 1;
   result.model = s.out;
   result.csv = loss_curve_path(s.out, "csv");
   result.plot = loss_curve_path(s.out, "svg");
@@ -386,7 +403,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
 
 PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettings& es,
                          std::map<std::string, PoseScores>* per_category,
-                         const std::function<void(long, long)>& progress) {
+                         const std::function<void(long, long)>& progress, std::vector<PoseItemScore>* per_item) {
   require(es.points > 0 && es.batch > 0, "eval-pose: points and batch must be positive");
   require(std::isfinite(es.zoom) && es.zoom > 0, "eval-pose: the zoom must be positive");
   std::vector<std::pair<int, int>> items;
@@ -419,6 +436,7 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
   struct ItemScore {
     double loss = 0;
     PoseErrors plain, sym;
+    Camera predicted, truth;
   };
   std::vector<ItemScore> scored(items.size());
   std::atomic<long> done{0};
@@ -456,7 +474,8 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
       for (size_t k = 0; k < m; ++k) {
         const std::vector<Mat3>& g = shape_symmetries[static_cast<size_t>(items[b0 + k].first)];
         scored[b0 + k] = {losses[k], each[k],
-                          g.empty() ? each[k] : pose_errors_modulo(to_double(pts[k]), predicted[k], cams[k], g)};
+                          g.empty() ? each[k] : pose_errors_modulo(to_double(pts[k]), predicted[k], cams[k], g),
+                          predicted[k], cams[k]};
       }
       const long now = done += static_cast<long>(m);
       if (progress) {
@@ -466,9 +485,21 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
     }
   });
   PoseScores total;
+  if (per_item) per_item->clear();
   for (size_t i = 0; i < items.size(); ++i) {
     const ItemScore& it = scored[i];
     const int s = items[i].first;
+    if (per_item) {
+      PoseItemScore p;
+      p.id = data.shape(s).id;
+      p.view = items[i].second;
+      p.plain = it.plain;
+      p.sym = it.sym;
+      std::tie(p.rotation_deg, p.azimuth_deg) = rotation_error_degrees(it.predicted.R, it.truth.R);
+      p.distance = it.truth.t.norm();
+      p.distance_est = it.predicted.t.norm();
+      per_item->push_back(std::move(p));
+    }
     for (PoseScores* p : {&total, per_category ? &(*per_category)[data.shape(s).category] : nullptr}) {
       if (!p) continue;
       p->loss += it.loss;

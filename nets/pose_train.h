@@ -128,8 +128,21 @@ struct PoseEvalSettings {
   /// the magnification, the principal point moved with the crop): how well the network reads recon's inputs.
   bool reframe = false;
 };
+/// One image's scores (evaluate_pose's per_item, in (shape, view) order).
+struct PoseItemScore {
+  std::string id;        ///< "<category>/<shape>"
+  int view = 0;
+  PoseErrors plain, sym;  ///< sym = plain for a shape without symmetries
+  double rotation_deg = 0;  ///< geodesic angle between the estimated and the true rotation
+  /// The turn about the object's vertical axis (+y) closest to the rotation error, in (-180, 180]: R_est ~
+  /// R_true R_y(azimuth_deg); a whole-view flip reads about 180.
+  double azimuth_deg = 0;
+  double distance = 0, distance_est = 0;  ///< true and estimated camera distance |t|
+};
+
 PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettings& settings,
                          std::map<std::string, PoseScores>* per_category = nullptr,
-                         const std::function<void(long, long)>& progress = {});
+                         const std::function<void(long, long)>& progress = {},
+                         std::vector<PoseItemScore>* per_item = nullptr);
 
 }  // namespace sdfkit

@@ -91,3 +91,31 @@ TEST_CASE("pose metrics modulo symmetries: the turned twin of the true camera sc
   CHECK(pose_errors_modulo(X, opposite, truth, {half}).d2d < 1e-6);
   CHECK_THROWS_AS(pose_errors_modulo(X, twin, truth, {Mat3(2.0 * Mat3::Identity())}), InvalidInput);
 }
+
+TEST_CASE("rotation error: the angle and the turn about the vertical axis, closed forms") {
+  auto turn_y = [](double deg) {
+    const double a = deg * M_PI / 180.0;
+    Mat3 R;
+    R << std::cos(a), 0, std::sin(a), 0, 1, 0, -std::sin(a), 0, std::cos(a);
+    return R;
+  };
+  for (const double az : {0.0, 37.0, 200.0})
+    for (const double phi : {0.0, 12.5, -90.0, 179.0, -150.0}) {
+      const Mat3 R = look_at(az, 27, 2.7).R;
+      const auto [angle, azimuth] = rotation_error_degrees(R * turn_y(phi), R);
+      CHECK(angle == doctest::Approx(std::abs(phi)).epsilon(1e-9));
+      CHECK(azimuth == doctest::Approx(phi).epsilon(1e-9));
+    }
+  // A camera that sees the object turned about +y by phi is look_at's camera at azimuth - or + phi: the turn's
+  // size is the azimuth difference.
+  const auto [angle, azimuth] = rotation_error_degrees(look_at(70, 27, 2.7).R, look_at(30, 27, 2.7).R);
+  CHECK(angle == doctest::Approx(40).epsilon(1e-9));
+  CHECK(std::abs(azimuth) == doctest::Approx(40).epsilon(1e-9));
+  // A tilt about the object's x axis has no vertical turn: the angle alone.
+  Mat3 tilt;
+  const double t = 20 * M_PI / 180;
+  tilt << 1, 0, 0, 0, std::cos(t), -std::sin(t), 0, std::sin(t), std::cos(t);
+  const auto [tilt_angle, tilt_azimuth] = rotation_error_degrees(look_at(10, 27, 2.7).R * tilt, look_at(10, 27, 2.7).R);
+  CHECK(tilt_angle == doctest::Approx(20).epsilon(1e-9));
+  CHECK(tilt_azimuth == doctest::Approx(0).epsilon(1e-9));
+}

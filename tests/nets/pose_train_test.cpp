@@ -12,8 +12,10 @@
 #include <tbb/task_arena.h>
 #include <tbb/global_control.h>
 
+#include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <sstream>
 #include <unistd.h>
 
 using namespace sdfkit;
@@ -155,6 +157,32 @@ TEST_CASE("train pose gives the same model for 1 and 2 threads, and the replicas
   }
   CHECK(den > 0);
   CHECK(std::sqrt(num / den) < 1e-5);
+  fs::remove_all(root);
+}
+
+TEST_CASE("train pose: a shape listed twice is drawn twice as often, its symmetries found once") {
+  const fs::path root = make_pose_dataset();
+  write_text_atomic((root / "twice.lst").string(), "car/a\ncar/a\nlamp/b\n");
+  Mat3 half;
+  half << -1, 0, 0, 0, 1, 0, 0, 0, -1;
+  std::atomic<int> car_calls{0}, lamp_calls{0};
+  PoseTrainSettings s = tiny_settings(root, (root / "twice.ckpt").string());
+  s.train_split = (root / "twice.lst").string();
+  s.symmetry_tag = "test";
+  s.symmetries = [&](const ShapeEntry& shape) {
+    (shape.category == "car" ? car_calls : lamp_calls)++;
+    return shape.category == "car" ? std::vector<Mat3>{half} : std::vector<Mat3>{};
+  };
+  const PoseTrainResult r = train_pose(s);
+  CHECK(car_calls == 1);
+  CHECK(lamp_calls == 1);
+  CHECK(r.symmetric_shapes == 1);  // shapes, not entries
+  // The repeated entry changes the draw: another model than the list without it.
+  PoseTrainSettings once = s;
+  once.train_split = "train";
+  once.out = (root / "once.ckpt").string();
+  train_pose(once);
+  CHECK(model_params(s.out) != model_params(once.out));
   fs::remove_all(root);
 }
 
@@ -351,8 +379,23 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
     ++calls;
     return shape.category == "car" ? std::vector<Mat3>{half} : std::vector<Mat3>{};
   };
-  const PoseScores all = evaluate_pose(*net, data, es, &modulo);
+  std::vector<PoseItemScore> items;
+  const PoseScores all = evaluate_pose(*net, data, es, &modulo, {}, &items);
   CHECK(calls == 2);
+  // Per image: (shape, view) order, the category means are their means, the angles those of the cameras.
+  REQUIRE(items.size() == 2);
+  CHECK(items[0].id == "car/a");
+  CHECK(items[1].id == "lamp/b");
+  CHECK(items[0].view == 0);
+  CHECK(items[0].plain.d2d == doctest::Approx(plain["car"].d2d).epsilon(1e-12));
+  CHECK(items[0].sym.d2d == doctest::Approx(modulo["car"].d2d_sym).epsilon(1e-12));
+  CHECK(items[1].sym.d3d == items[1].plain.d3d);
+  CHECK(items[0].distance == doctest::Approx(2.7).epsilon(1e-12));
+  CHECK(items[0].distance_est > 0);
+  for (const PoseItemScore& it : items) {
+    CHECK(it.rotation_deg >= std::abs(it.azimuth_deg) - 1e-9);  // the vertical turn is part of the whole rotation
+    CHECK(it.rotation_deg <= 180.0);
+  }
   CHECK(all.d2d == all_plain.d2d);  // the plain scores do not change
   CHECK(all.d3d == all_plain.d3d);
   CHECK(modulo["car"].d2d_sym == doctest::Approx(std::min(plain["car"].d2d, twin["car"].d2d)).epsilon(1e-12));
@@ -381,5 +424,28 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
   CHECK(j.at("per_category").at("lamp").at("d2d_sym").get<double>() ==
         doctest::Approx(modulo["lamp"].d2d).epsilon(1e-9));
   CHECK(j.at("d2d").get<double>() == doctest::Approx(all_plain.d2d).epsilon(1e-9));
+
+  // --per-image: one CSV row per image, whose d2D are the API's.
+  const std::string csv = (root / "per_image.csv").string();
+  const test::CliRun pr = test::run_sdfkit(cmd + " --per-image " + csv);
+  REQUIRE_MESSAGE(pr.code == 0, pr.err);
+  std::istringstream lines(read_file(csv));
+  std::string line;
+  std::getline(lines, line);
+  CHECK(line == "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est");
+  std::vector<std::string> rows;
+  while (std::getline(lines, line)) rows.push_back(line);
+  REQUIRE(rows.size() == 2);
+  CHECK(rows[0].rfind("car/a,0,", 0) == 0);
+  CHECK(rows[1].rfind("lamp/b,0,", 0) == 0);
+  const auto field = [](const std::string& row, int k) {
+    std::istringstream f(row);
+    std::string v;
+    for (int i = 0; i <= k; ++i) std::getline(f, v, ',');
+    return std::stod(v);
+  };
+  CHECK(field(rows[0], 3) == doctest::Approx(items[0].plain.d2d).epsilon(1e-5));
+  CHECK(field(rows[1], 3) == doctest::Approx(items[1].plain.d2d).epsilon(1e-5));
+  CHECK(field(rows[0], 5) == doctest::Approx(items[0].sym.d2d).epsilon(1e-5));
   fs::remove_all(root);
 }
