@@ -397,7 +397,8 @@ TEST_CASE("recon --fuse: views of one object with their cameras give one mesh, i
   // Estimated: each view by the main pose model (renders framed like the training renders are not reframed).
   r = run("recon " + views + " -o " + (dir / "fused_est.obj").string() + " --fuse --res 33 --json --no-preview");
   REQUIRE_MESSAGE(r.code == 0, r.err);
-  for (const Json& v : Json::parse(r.out).at("views")) {
+  const Json est = Json::parse(r.out);  // named: a range-for over a temporary's member would read freed memory
+  for (const Json& v : est.at("views")) {
     CHECK(v.at("camera_source") == "estimated");
     CHECK(v.at("pose_model") == "main");
   }
