@@ -26,6 +26,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     double symmetry_tol = 0.01;
     double flip_check = kDefaultFlipCheck;
     double mirror_agree = kMirrorAgreeDeg;
+    std::string zoom_tta = "none";
   };
   auto o = std::make_shared<Opts>();
   app.add_option("--model", o->model, "pose model written by `sdfkit train pose`")->required();
@@ -61,6 +62,10 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                  "apart, else the one the azimuth head supports is kept")
       ->capture_default_str()
       ->check(in_range(0.0, 180.0));
+  app.add_option("--zoom-tta", o->zoom_tta,
+                 "also read every view magnified by each of these factors (comma-separated, in [0.5, 2]) and average "
+                 "the readings that agree (docs/nets.md, pose zoom TTA), as recon's --pose-zoom-tta; none: off")
+      ->capture_default_str();
   app.add_option("--zoom", o->e.zoom,
                  "magnify every view by this factor about its centre and divide the true camera distance by it "
                  "(less where the object would leave the frame): how well the model reads the distance from the "
@@ -78,13 +83,15 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                  "flip), the true and estimated distances");
   app.add_flag("--json", o->json, "print JSON (overall + per category) instead of text");
   return [o, &app] {
-    if (o->pose_tta != "mirror" && app.get_option("--mirror-agree")->count() > 0)
-      throw InvalidInput("--mirror-agree applies with --pose-tta mirror");
+    const std::vector<double> zoom_tta = parse_zoom_list(o->zoom_tta, "eval-pose: --zoom-tta");
+    if (o->pose_tta != "mirror" && zoom_tta.empty() && app.get_option("--mirror-agree")->count() > 0)
+      throw InvalidInput("--mirror-agree applies with --pose-tta mirror or --zoom-tta");
     const auto t0 = std::chrono::steady_clock::now();
     auto net = load_pose_model(o->model);
     net->set_flip_check(o->flip_check);
     net->set_mirror_tta(o->pose_tta == "mirror");
     net->set_mirror_agree(o->mirror_agree);
+    net->set_zoom_tta(zoom_tta);
     DatasetSettings ds;
     ds.root = o->data;
     ds.split = o->split;
@@ -137,7 +144,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       Json j = scores(all);
       j.update({{"model", o->model}, {"data", o->data}, {"split", o->split}, {"shapes", data.size()},
                 {"azimuth_bins", net->settings().azimuth_bins}, {"flip_check", o->flip_check}, {"pose_tta", o->pose_tta},
-                {"mirror_agree_deg", o->mirror_agree},
+                {"mirror_agree_deg", o->mirror_agree}, {"zoom_tta", zoom_tta},
                 {"points", o->e.points}, {"zoom", o->e.zoom}, {"reframe", o->e.reframe}, {"seconds", seconds}, {"per_category", cats}});
       if (o->symmetry) {
         j["symmetry_tol"] = o->symmetry_tol;

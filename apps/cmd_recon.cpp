@@ -78,7 +78,8 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
     if (!refine && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-camera");
   for (const char* f : {"--refine-distance", "--refine-evals", "--refine-max-deg", "--refine-max-distance"})
     if (!local && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-local");
-  for (const char* f : {"--pose-model", "--photo-pose-model", "--flip-check", "--pose-distances", "--pose-tta"})
+  for (const char* f : {"--pose-model", "--photo-pose-model", "--flip-check", "--pose-distances", "--pose-tta",
+                        "--pose-zoom-tta"})
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
   if (dense && given("--no-follow")) throw InvalidInput("--no-follow applies to the adaptive extraction, not to --dense");
@@ -149,7 +150,7 @@ std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
     std::string input, out, model, pose_model, photo_pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto",
                 framing = "auto", box;
-    std::string pose_distances = "off", pose_tta = "mirror";
+    std::string pose_distances = "off", pose_tta = "mirror", pose_zoom_tta = zoom_list(kDefaultPoseZoomTta);
     ReconSettings s;
     bool json = false, no_preview = false;
     int jobs = 1;
@@ -265,6 +266,10 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "combined (docs/recon.md); none: one reading")
       ->capture_default_str()
       ->check(CLI::IsMember({"mirror", "none"}));
+  app.add_option("--pose-zoom-tta", o->pose_zoom_tta,
+                 "the pose network also reads the input magnified by each of these factors (comma-separated, in "
+                 "[0.5, 2]) and the readings that agree are averaged (docs/recon.md); none: off")
+      ->capture_default_str();
   app.add_flag("--refine-camera", o->refine,
                "test-time camera refinement (opt-in, docs/recon.md): reconstruct coarsely (--refine-res) for camera "
                "candidates turned in azimuth within +-(--refine-sweep) degrees, keep the one whose mesh's "
@@ -348,6 +353,7 @@ std::function<int()> setup_recon(CLI::App& app) {
     }
     o->s.framing.reframe = parse_reframing(o->framing);
     o->s.pose_mirror_tta = o->pose_tta == "mirror";
+    o->s.pose_zoom_tta = parse_zoom_list(o->pose_zoom_tta, "recon: --pose-zoom-tta");
     if (o->pose_distances != "off")
       std::tie(o->s.pose_distance_min, o->s.pose_distance_max) =
           parse_positive_range(o->pose_distances, "recon: --pose-distances");

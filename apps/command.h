@@ -42,6 +42,11 @@ CLI::Validator in_range(double lo, double hi);
 /// "MIN,MAX" with 0 < MIN <= MAX (finite) as {MIN, MAX}; InvalidInput naming `what` (e.g. "train sdf: --zoom-range")
 /// otherwise.
 std::pair<double, double> parse_positive_range(const std::string& text, const std::string& what);
+/// "K1,K2,..." of magnifications in [0.5, 2] other than 1 (a zoom TTA), or "none" = {}; InvalidInput naming `what`
+/// otherwise.
+std::vector<double> parse_zoom_list(const std::string& text, const std::string& what);
+/// The inverse of parse_zoom_list ("none" for an empty list).
+std::string zoom_list(const std::vector<double>& zooms);
 /// "A,B,C,..." of positive integers (layer widths) as a list; InvalidInput naming `what` (e.g. "--encoder")
 /// otherwise.
 std::vector<int> parse_widths(const std::string& text, const std::string& what);

@@ -114,6 +114,34 @@ std::pair<double, double> parse_positive_range(const std::string& text, const st
   return {lo, hi};
 }
 
+std::vector<double> parse_zoom_list(const std::string& text, const std::string& what) {
+  std::vector<double> out;
+  if (text == "none") return out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    double k = 0;
+    char tail = 0;
+    if (std::sscanf(item.c_str(), "%lf%c", &k, &tail) != 1 || !std::isfinite(k) || k < 0.5 || k > 2 || k == 1)
+      throw InvalidInput(what + " wants magnifications in [0.5, 2] other than 1, comma-separated, or none; got '" +
+                         text + "'");
+    out.push_back(k);
+  }
+  if (out.empty()) throw InvalidInput(what + " wants magnifications in [0.5, 2] or none; got '" + text + "'");
+  return out;
+}
+
+std::string zoom_list(const std::vector<double>& zooms) {
+  if (zooms.empty()) return "none";
+  std::string out;
+  for (double k : zooms) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", k);
+    out += (out.empty() ? "" : ",") + std::string(buf);
+  }
+  return out;
+}
+
 std::string default_model_dir() {
   namespace fs = std::filesystem;
   if (const char* env = std::getenv("SDFKIT_MODEL_DIR"); env != nullptr && *env != '\0') return env;

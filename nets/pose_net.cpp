@@ -2,6 +2,7 @@
 
 #include "camera/rotation6d.h"
 #include "core/json.h"
+#include "nets/dataset.h"
 
 #include <Eigen/SVD>
 
@@ -187,51 +188,118 @@ Camera PoseNet::camera_from_outputs(const Eigen::Matrix<float, 6, 1>& b, float z
   return cam;
 }
 
+void PoseNet::set_zoom_tta(const std::vector<double>& zooms) {
+  for (double k : zooms)
+    require(std::isfinite(k) && k >= 0.5 && k <= 2 && k != 1,
+            "pose net: a zoom TTA magnification must be in [0.5, 2] and not 1");
+  zoom_tta_ = zooms;
+}
+
 PosePrediction PoseNet::predict(const MatrixXfR& images) {
   const Eigen::Index B = images.rows();
-  if (mirror_tta_) {
-    MatrixXfR both(2 * B, images.cols());
-    both.topRows(B) = images;
-    both.bottomRows(B) = flip_images(images, s_.image_size);
-    run(both, false);
-  } else {
-    run(images, false);
+  const int S = s_.image_size;
+  // The network reads every image at each zoom level (level 0: as given, then zoom_tta_), each followed by its
+  // mirror with the mirror TTA: level z's rows start at z * per * B.
+  const size_t Z = 1 + zoom_tta_.size();
+  const Eigen::Index per = mirror_tta_ ? 2 : 1;
+  std::vector<double> mag(Z * static_cast<size_t>(B), 1.0);  // magnification applied to (level, image)
+  MatrixXfR all(static_cast<Eigen::Index>(Z) * per * B, images.cols());
+  for (size_t z = 0; z < Z; ++z) {
+    const Eigen::Index r0 = static_cast<Eigen::Index>(z) * per * B;
+    if (z == 0) {
+      all.middleRows(r0, B) = images;
+    } else {
+      require(images.cols() == 3L * S * S, "pose net: the zoom TTA reads 3-channel images");
+      for (Eigen::Index b = 0; b < B; ++b) {
+        const Eigen::VectorXf row = images.row(b).transpose();
+        // Never magnify an object out of the frame (the training zoom's rule).
+        const double k = std::min(zoom_tta_[z - 1], std::max(1.0, max_zoom_inside(row, S)));
+        mag[z * static_cast<size_t>(B) + static_cast<size_t>(b)] = k;
+        all.row(r0 + b) = (k == 1 ? row : zoom_image(row, S, k)).transpose();
+      }
+    }
+    if (mirror_tta_) all.middleRows(r0 + B, B) = flip_images(all.middleRows(r0, B), S);
   }
+  run(all, false);
   const int K = s_.azimuth_bins;
-  // Camera and azimuth probabilities of row r of the last run.
-  const auto reading = [&](Eigen::Index r, std::vector<float>& prob) {
+  // Camera and azimuth probabilities of row r of the last run, read for an image magnified by k: the distance
+  // is k times the one read (the training zoom moves the camera, ZoomAugmentSettings::kDistance) and the
+  // principal point's offset from the image centre 1 / k times.
+  const auto reading = [&](Eigen::Index r, double k, std::vector<float>& prob) {
     Eigen::Matrix<float, 6, 1> v;
-    for (int k = 0; k < 6; ++k) v[k] = rot_[r * 6 + k];
+    for (int i = 0; i < 6; ++i) v[i] = rot_[r * 6 + i];
     prob.clear();
     if (K > 0) {
       std::vector<double> pd(static_cast<size_t>(K));
       softmax_cross_entropy(az_.ptr() + r * K, nullptr, K, nullptr, pd.data());
       prob.assign(pd.begin(), pd.end());
     }
-    return std::make_pair(v, camera_from_outputs(v, dist_[r], s_.centre_head ? centre_.ptr() + r * 2 : nullptr));
+    Camera cam = camera_from_outputs(v, dist_[r], s_.centre_head ? centre_.ptr() + r * 2 : nullptr);
+    if (k != 1) {
+      cam.t *= k;
+      const double c = 0.5 * S;
+      cam.K(0, 2) = c + (cam.K(0, 2) - c) / k;
+      cam.K(1, 2) = c + (cam.K(1, 2) - c) / k;
+    }
+    return std::make_pair(v, cam);
+  };
+  // One zoom level's estimate of image b: its reading, combined with the mirror's under the mirror TTA.
+  const auto level = [&](size_t z, Eigen::Index b, std::vector<float>& prob, Eigen::Matrix<float, 6, 1>* r6,
+                         double* mirror_angle) {
+    const Eigen::Index r0 = static_cast<Eigen::Index>(z) * per * B;
+    const double k = mag[z * static_cast<size_t>(B) + static_cast<size_t>(b)];
+    auto [v, cam] = reading(r0 + b, k, prob);
+    if (r6) *r6 = v;
+    if (!mirror_tta_) return cam;
+    std::vector<float> mprob;
+    const Camera other = mirror_camera(reading(r0 + B + b, k, mprob).second);
+    mprob = mirror_azimuth_prob(mprob);
+    for (size_t i = 0; i < prob.size(); ++i) prob[i] = 0.5f * (prob[i] + mprob[i]);
+    const double angle = rotation_angle_deg(cam.R, other.R);
+    if (mirror_angle) *mirror_angle = angle;
+    // Without the azimuth head nothing tells the readings apart: they are always averaged, except when exactly
+    // opposite (their sum is singular, no mean exists; a half turn apart is 2 cos(angle / 2) from singular).
+    if (angle <= mirror_agree_deg_ || (K == 0 && angle < 179.9)) {
+      cam.R = nearest_rotation(cam.R + other.R);
+      cam.t = 0.5 * (cam.t + other.t);
+      cam.K = 0.5 * (cam.K + other.K);
+    } else if (K > 0 && azimuth_window_mass(prob, camera_azimuth(other)) >
+                            azimuth_window_mass(prob, camera_azimuth(cam))) {
+      cam = other;
+    }
+    return cam;
   };
   PosePrediction p;
   for (Eigen::Index b = 0; b < B; ++b) {
     std::vector<float> prob;
-    auto [r6, cam] = reading(b, prob);
+    Eigen::Matrix<float, 6, 1> r6;
+    double angle = 0;
+    Camera cam = level(0, b, prob, &r6, &angle);
     p.rot6d.push_back(r6);
-    if (mirror_tta_) {
-      std::vector<float> mprob;
-      const Camera other = mirror_camera(reading(B + b, mprob).second);
-      mprob = mirror_azimuth_prob(mprob);
-      for (size_t k = 0; k < prob.size(); ++k) prob[k] = 0.5f * (prob[k] + mprob[k]);
-      const double angle = rotation_angle_deg(cam.R, other.R);
-      p.mirror_angle.push_back(angle);
-      // Without the azimuth head nothing tells the readings apart: they are always averaged, except when exactly
-      // opposite (their sum is singular, no mean exists; a half turn apart is 2 cos(angle / 2) from singular).
-      if (angle <= mirror_agree_deg_ || (K == 0 && angle < 179.9)) {
-        cam.R = nearest_rotation(cam.R + other.R);
-        cam.t = 0.5 * (cam.t + other.t);
-        cam.K = 0.5 * (cam.K + other.K);
-      } else if (K > 0 && azimuth_window_mass(prob, camera_azimuth(other)) >
-                              azimuth_window_mass(prob, camera_azimuth(cam))) {
-        cam = other;
+    if (mirror_tta_) p.mirror_angle.push_back(angle);
+    if (Z > 1) {
+      // The other levels: their probabilities all enter the mean, their cameras when within the agreement angle
+      // of level 0's (a level that reads another view does not drag the estimate half-way to it).
+      Mat3 sum_r = cam.R;
+      Vec3 sum_t = cam.t;
+      Mat3 sum_k = cam.K;
+      int n = 1;
+      std::vector<double> sum_p(prob.begin(), prob.end());
+      for (size_t z = 1; z < Z; ++z) {
+        std::vector<float> zp;
+        const Camera c = level(z, b, zp, nullptr, nullptr);
+        for (size_t i = 0; i < zp.size(); ++i) sum_p[i] += zp[i];
+        if (rotation_angle_deg(cam.R, c.R) <= mirror_agree_deg_) {
+          sum_r += c.R;
+          sum_t += c.t;
+          sum_k += c.K;
+          ++n;
+        }
       }
+      cam.R = nearest_rotation(sum_r);
+      cam.t = sum_t / static_cast<double>(n);
+      cam.K = sum_k / static_cast<double>(n);
+      for (size_t i = 0; i < prob.size(); ++i) prob[i] = static_cast<float>(sum_p[i] / static_cast<double>(Z));
     }
     p.regressed.push_back(cam);
     double shift = 0;

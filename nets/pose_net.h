@@ -112,6 +112,16 @@ class PoseNet {
   /// averaged. InvalidInput outside [0, 180].
   void set_mirror_agree(double degrees);
   [[nodiscard]] double mirror_agree() const { return mirror_agree_deg_; }
+  /// Zoom test-time augmentation in predict(): the network also reads each image magnified by each k of `zooms`
+  /// about its centre (zoom_image, nets/dataset.h; a k > 1 is lowered so that the object stays in the frame, as
+  /// the training zoom does), each with its mirror under the mirror TTA. A reading of an image magnified by k is
+  /// read back at distance k d and principal-point offset / k (the pose training's zoom moves the camera,
+  /// ZoomAugmentSettings::kDistance). The readings whose rotation is within the agreement angle (mirror_agree) of
+  /// the unzoomed one are averaged with it (rotation nearest to the sum, mean translation and intrinsics); the
+  /// azimuth probabilities of every level are averaged before the flip check. Empty (default) = off. Costs one
+  /// more forward pass (two with the mirror TTA) per magnification. InvalidInput for a k outside [0.5, 2] or 1.
+  void set_zoom_tta(const std::vector<double>& zooms);
+  [[nodiscard]] const std::vector<double>& zoom_tta() const { return zoom_tta_; }
 
   /// One training forward + backward: returns the batch's L_cam and ADDS the gradients of weight x L_cam to the
   /// parameter gradients (call params().zero_grad() first). points[b] are item b's object-frame points. Data-
@@ -154,6 +164,7 @@ class PoseNet {
   double flip_check_ = kDefaultFlipCheck;
   bool mirror_tta_ = false;
   double mirror_agree_deg_ = kMirrorAgreeDeg;
+  std::vector<double> zoom_tta_;
 };
 
 /// L_cam of one item and its gradient wrt (R_pred, d_pred); exposed for tests.

@@ -431,6 +431,8 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
     replicas.back()->share_parameters(net);
     replicas.back()->set_flip_check(net.flip_check());
     replicas.back()->set_mirror_tta(net.mirror_tta());
+    replicas.back()->set_mirror_agree(net.mirror_agree());
+    replicas.back()->set_zoom_tta(net.zoom_tta());
     nets.push_back(replicas.back().get());
   }
   struct ItemScore {

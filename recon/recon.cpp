@@ -88,7 +88,7 @@ std::unique_ptr<Reconstructor> Reconstructor::load(const std::string& sdf_path, 
 }
 
 Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_check, double* flip_turn_deg,
-                                     bool mirror_tta, bool reframed) const {
+                                     bool mirror_tta, bool reframed, const std::vector<double>& zoom_tta) const {
   if (!pose_) throw InvalidInput("no pose model loaded: give the camera (--cam FILE) or a pose model");
   PoseNet& net = reframed && photo_pose_ ? *photo_pose_ : *pose_;
   MatrixXfR images(1, input.size());
@@ -96,6 +96,7 @@ Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_
   std::lock_guard<std::mutex> lock(pose_mutex_);
   net.set_flip_check(flip_check);
   net.set_mirror_tta(mirror_tta);
+  net.set_zoom_tta(zoom_tta);
   const PosePrediction p = net.predict(images);
   if (flip_turn_deg) *flip_turn_deg = p.azimuth_shift.at(0);
   return p.cameras.at(0);
@@ -103,7 +104,8 @@ Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_
 
 Camera Reconstructor::estimate_network_camera(const Eigen::VectorXf& input, const ReconSettings& settings,
                                               double* flip_turn_deg, bool reframed) const {
-  const Camera c = estimate_camera(input, settings.flip_check, flip_turn_deg, settings.pose_mirror_tta, reframed);
+  const Camera c = estimate_camera(input, settings.flip_check, flip_turn_deg, settings.pose_mirror_tta, reframed,
+                                   settings.pose_zoom_tta);
   return settings.pose_distance_max > 0 ? distance_as_focal(c, settings.pose_distance_min, settings.pose_distance_max)
                                         : c;
 }
@@ -365,6 +367,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
     r.camera = estimate_network_camera(input, settings, &r.flip_turn_deg, reframed);
     r.camera_estimated = true;
     r.pose_mirror_tta = settings.pose_mirror_tta;
+    r.pose_zoom_tta = settings.pose_zoom_tta;
     r.photo_pose = reframed && photo_pose_ != nullptr;
     r.timings.pose = since(t);
   }
@@ -478,6 +481,7 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
   r.input_camera = r.view_input_cameras[0];
   r.camera_estimated = r.view_estimated[0];
   r.pose_mirror_tta = r.camera_estimated && settings.pose_mirror_tta;
+  if (r.camera_estimated) r.pose_zoom_tta = settings.pose_zoom_tta;
   r.photo_pose = r.view_photo_pose[0];
   finish_result(r, st, settings, inputs[0]);
   r.framing = std::move(framed[0]);

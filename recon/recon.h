@@ -41,6 +41,9 @@ inline CameraRefineSettings recon_refine_defaults() {
 /// field is nearly a distance: 2. A binary-variant model's field (-logit / sdf_scale) is flat inside and outside and
 /// steep at the surface; with surface following the refinement only has to touch every surface component once, and
 /// 10 does that for the thinnest test shapes (docs/recon.md, "Extraction").
+/// recon's default zoom TTA of the pose network (ReconSettings::pose_zoom_tta); empty = off.
+inline const std::vector<double> kDefaultPoseZoomTta = {};
+
 inline double default_extraction_safety(SdfVariant variant) { return variant == SdfVariant::kBinary ? 10.0 : 2.0; }
 
 struct ReconSettings {
@@ -74,6 +77,10 @@ struct ReconSettings {
   /// Mirror test-time augmentation of the pose network (PoseNet::set_mirror_tta): it also reads the input flipped
   /// left to right and combines the two estimates. One more pose forward pass (about 10 ms).
   bool pose_mirror_tta = true;
+  /// Zoom test-time augmentation of the pose network (PoseNet::set_zoom_tta): the magnifications at which it also
+  /// reads the input, the readings that agree averaged. One more pose forward pass per magnification (two with the
+  /// mirror TTA). Empty = off.
+  std::vector<double> pose_zoom_tta = kDefaultPoseZoomTta;
   /// The training renders' camera distances (camera/views.h: 2.45-3.0). With both set, an estimated camera whose
   /// distance falls outside them is read as a focal length (camera.h's distance_as_focal): the pose network answers
   /// an object magnified by recon's crop with a shorter distance, while that image is the one a camera at a render
@@ -127,6 +134,7 @@ struct ReconResult {
   bool camera_estimated = false;
   double flip_turn_deg = 0;     ///< degrees the flip check turned the estimated camera about +y (0 = kept)
   bool pose_mirror_tta = false; ///< the estimated camera combines the mirrored input's reading
+  std::vector<double> pose_zoom_tta;  ///< the magnifications the pose network also read (empty = none)
   bool photo_pose = false;      ///< the camera was estimated by the photo pose network (a reframed input)
   Camera initial_camera;        ///< the estimated or given camera before refinement
   std::vector<CameraRefineResult> refinements;  ///< one per refinement round (empty when off)
@@ -199,10 +207,11 @@ class Reconstructor {
                         const ReconSettings& settings, const std::vector<std::string>& what) const;
   /// Camera estimate of a network input (InvalidInput when no pose network is loaded), with the pose model's flip
   /// check at `flip_check` (ReconSettings::flip_check) and its mirror TTA when `mirror_tta`
-  /// (ReconSettings::pose_mirror_tta); *flip_turn_deg (may be null) gets the check's turn. `reframed`: read by the
-  /// photo pose network when one is loaded.
+  /// (ReconSettings::pose_mirror_tta) and zoom TTA at `zoom_tta` (ReconSettings::pose_zoom_tta); *flip_turn_deg (may
+  /// be null) gets the check's turn. `reframed`: read by the photo pose network when one is loaded.
   Camera estimate_camera(const Eigen::VectorXf& input, double flip_check = kDefaultFlipCheck,
-                         double* flip_turn_deg = nullptr, bool mirror_tta = true, bool reframed = false) const;
+                         double* flip_turn_deg = nullptr, bool mirror_tta = true, bool reframed = false,
+                         const std::vector<double>& zoom_tta = kDefaultPoseZoomTta) const;
 
  private:
   struct MeshStats;

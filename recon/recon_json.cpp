@@ -28,6 +28,7 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
   if (r.camera_estimated) {
     j["flip_turn_deg"] = r.flip_turn_deg;
     j["pose_tta"] = r.pose_mirror_tta ? "mirror" : "none";
+    j["pose_zoom_tta"] = r.pose_zoom_tta;
     j["pose_model"] = r.photo_pose ? "photo" : "main";
   }
   if (!r.refinements.empty()) {

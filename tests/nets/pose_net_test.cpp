@@ -4,6 +4,7 @@
 #include "camera/rotation6d.h"
 #include "nets/optim.h"
 #include "nets/checkpoint.h"
+#include "nets/dataset.h"
 #include "nets/pose_train.h"
 #include "gradcheck.h"
 #include "scratch.h"
@@ -575,4 +576,64 @@ TEST_CASE("pose net mirror TTA agreement angle: 180 averages every pair, 0 keeps
     CHECK((to_plain < 1e-3 || std::abs(to_plain - none.mirror_angle[b]) < 1e-3));
   }
   for (const double bad : {-1.0, 180.5, std::nan("")}) CHECK_THROWS_AS(net.set_mirror_agree(bad), InvalidInput);
+}
+
+TEST_CASE("pose net zoom TTA: the readings of the magnified images, read back and averaged with the image's") {
+  for (const bool centre : {false, true}) {
+    CAPTURE(centre);
+    PoseNetSettings s = tiny_with_head(12);
+    s.centre_head = centre;
+    PoseNet net(s, false);
+    net.init(7);
+    // Images 0-2: an object of 10 x 10 px on white (room to magnify); 3-5: noise over the whole frame (none).
+    MatrixXfR img = MatrixXfR::Ones(6, 3 * 40 * 40);
+    const MatrixXfR noise = MatrixXfR::Random(6, 3 * 40 * 40).array() * 0.5f + 0.5f;
+    for (int b = 0; b < 6; ++b)
+      for (int c = 0; c < 3; ++c)
+        for (int y = 0; y < 40; ++y)
+          for (int x = 0; x < 40; ++x)
+            if (b >= 3 || (x >= 15 && x < 25 && y >= 14 && y < 24))
+              img(b, (c * 40 + y) * 40 + x) = noise(b, (c * 40 + y) * 40 + x) * 0.8f;
+    net.set_flip_check(0);
+    net.set_mirror_agree(180);
+    const PosePrediction plain = net.predict(img);
+    for (const double k : {0.8, 1.5}) {
+      CAPTURE(k);
+      net.set_zoom_tta({k});
+      CHECK(net.zoom_tta() == std::vector<double>{k});
+      const PosePrediction tta = net.predict(img);
+      net.set_zoom_tta({});
+      for (int b = 0; b < 6; ++b) {
+        CAPTURE(b);
+        // The reference: the network's reading of the image magnified as the TTA does (a full frame cannot grow).
+        const Eigen::VectorXf row = img.row(b).transpose();
+        const double applied = k > 1 ? std::min(k, std::max(1.0, max_zoom_inside(row, 40))) : k;
+        if (b >= 3 && k > 1) CHECK(applied == 1.0);
+        if (b < 3) CHECK(applied == k);
+        MatrixXfR one(1, img.cols());
+        one.row(0) = (applied == 1 ? row : zoom_image(row, 40, applied)).transpose();
+        const PosePrediction z = net.predict(one);
+        Camera read = z.regressed[0];
+        read.t *= applied;
+        read.K(0, 2) = 20 + (read.K(0, 2) - 20) / applied;
+        read.K(1, 2) = 20 + (read.K(1, 2) - 20) / applied;
+        const Mat3 expect_r = nearest_rotation(plain.regressed[b].R + read.R);
+        CHECK((tta.regressed[b].R - expect_r).norm() < 1e-6);
+        CHECK((tta.regressed[b].t - 0.5 * (plain.regressed[b].t + read.t)).norm() < 1e-6);
+        CHECK((tta.regressed[b].K - 0.5 * (plain.regressed[b].K + read.K)).norm() < 1e-5);
+        for (int i = 0; i < 12; ++i)
+          CHECK(tta.azimuth_prob[b][i] ==
+                doctest::Approx(0.5 * (plain.azimuth_prob[b][i] + z.azimuth_prob[0][i])).epsilon(1e-5));
+        if (b < 3) CHECK(rotation_angle_deg(read.R, plain.regressed[b].R) > 1e-3);  // a real second reading
+      }
+    }
+    // Agreement angle 0: the magnified readings only enter the azimuth probabilities.
+    net.set_mirror_agree(0);
+    net.set_zoom_tta({0.8, 1.25});
+    const PosePrediction kept = net.predict(img);
+    for (int b = 0; b < 6; ++b) CHECK(rotation_angle_deg(kept.regressed[b].R, plain.regressed[b].R) < 1e-4);
+  }
+  PoseNet net(tiny_with_head(0), false);
+  for (const double bad : {1.0, 0.4, 2.5, std::nan("")})
+    CHECK_THROWS_AS(net.set_zoom_tta({0.9, bad}), InvalidInput);
 }

@@ -63,15 +63,17 @@ TEST_CASE("recon_result_json: every key of the recon record, cameras that read b
   ReconResult r = made_result();
   r.threshold = 0.4;  // a binary model's
   r.mirror_tta = true;
+  r.pose_zoom_tta = {0.9, 1.1};
   ReconSettings s;
   s.resolution = 65;
   const Json j = recon_result_json(r, s, {"in.png", "out/in.obj", "out/in.preview.png", "out/in.mask.png", {}}, 400, 300);
   for (const char* key : {"input", "mesh", "preview", "mask", "framing", "warnings", "camera", "network_camera",
-                          "camera_source", "flip_turn_deg", "pose_tta", "pose_model", "camera_refinement", "evaluations",
+                          "camera_source", "flip_turn_deg", "pose_tta", "pose_zoom_tta", "pose_model", "camera_refinement",
+                          "evaluations",
                           "vertices", "faces", "components_removed", "resolution", "extraction", "threshold",
                           "mirror_tta", "seconds"})
     CHECK_MESSAGE(j.contains(key), key);
-  CHECK(j.size() == 22);
+  CHECK(j.size() == 23);
   CHECK(j["threshold"] == 0.4);
   CHECK(j["mirror_tta"] == true);
   CHECK(j["input"] == "in.png");
@@ -88,6 +90,7 @@ TEST_CASE("recon_result_json: every key of the recon record, cameras that read b
   CHECK(j["camera_source"] == "estimated");
   CHECK(j["flip_turn_deg"] == 180.0);
   CHECK(j["pose_tta"] == "mirror");
+  CHECK(j["pose_zoom_tta"] == Json({0.9, 1.1}));
   CHECK(j["pose_model"] == "photo");
   CHECK(j["framing"]["fit_rounds"] == 1);
   CHECK(j["evaluations"] == 12345);
@@ -129,7 +132,8 @@ TEST_CASE("recon_result_json: a given camera, no refinement, no preview and the 
   CHECK(j["camera_source"] == "given");
   CHECK(j["extraction"] == "dense");
   CHECK(j["mirror_tta"] == false);
-  for (const char* key : {"preview", "mask", "flip_turn_deg", "pose_tta", "pose_model", "camera_refinement", "threshold"})
+  for (const char* key : {"preview", "mask", "flip_turn_deg", "pose_tta", "pose_zoom_tta", "pose_model",
+                          "camera_refinement", "threshold"})
     CHECK_MESSAGE(!j.contains(key), key);
   CHECK(j.size() == 15);
 }
