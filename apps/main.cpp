@@ -82,11 +82,26 @@ CLI::Validator in_range(double lo, double hi) {
                        "in [" + number_text(lo) + " - " + number_text(hi) + "]");
 }
 
+namespace {
+
+/// The comma-separated items of `text`, empty ones included ("a,,b" and "a," have an empty item; "" has one).
+std::vector<std::string> comma_items(const std::string& text) {
+  std::vector<std::string> items(1);
+  for (const char c : text) {
+    if (c == ',')
+      items.emplace_back();
+    else
+      items.back() += c;
+  }
+  return items;
+}
+
+}  // namespace
+
 std::vector<int> parse_widths(const std::string& text, const std::string& what) {
   std::vector<int> out;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
+  if (text.empty()) throw InvalidInput(what + ": empty list");
+  for (const std::string& item : comma_items(text)) {
     try {
       size_t used = 0;
       const int v = std::stoi(item, &used);
@@ -96,7 +111,6 @@ std::vector<int> parse_widths(const std::string& text, const std::string& what) 
       throw InvalidInput(what + " '" + text + "': expected positive integers separated by commas");
     }
   }
-  if (out.empty()) throw InvalidInput(what + ": empty list");
   return out;
 }
 
@@ -117,9 +131,8 @@ std::pair<double, double> parse_positive_range(const std::string& text, const st
 std::vector<double> parse_zoom_list(const std::string& text, const std::string& what) {
   std::vector<double> out;
   if (text == "none") return out;
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
+  if (text.empty()) throw InvalidInput(what + " wants magnifications in [0.5, 2] or none; got ''");
+  for (const std::string& item : comma_items(text)) {
     double k = 0;
     char tail = 0;
     if (std::sscanf(item.c_str(), "%lf%c", &k, &tail) != 1 || !std::isfinite(k) || k < 0.5 || k > 2 || k == 1)
@@ -127,7 +140,6 @@ std::vector<double> parse_zoom_list(const std::string& text, const std::string& 
                          text + "'");
     out.push_back(k);
   }
-  if (out.empty()) throw InvalidInput(what + " wants magnifications in [0.5, 2] or none; got '" + text + "'");
   return out;
 }
 

@@ -448,8 +448,8 @@ void zoom_images(MatrixXfR& images, std::vector<Camera>& cameras, const ZoomAugm
       cam.K(0, 0) *= k;
       cam.K(1, 1) *= k;
       cam.K(0, 1) *= k;
-      cam.K(0, 2) = k * cam.K(0, 2) + (1 - k) * cx;
-      cam.K(1, 2) = k * cam.K(1, 2) + (1 - k) * cy;
+      cam.K(0, 2) = magnified_coordinate(cam.K(0, 2), cx, k);
+      cam.K(1, 2) = magnified_coordinate(cam.K(1, 2), cy, k);
     }
     if (applied) (*applied)[static_cast<size_t>(b)] = k;
   });

@@ -203,6 +203,13 @@ void zoom_images(MatrixXfR& images, std::vector<Camera>& cameras, const ZoomAugm
 /// zoom_images does, without the limit that keeps the object inside.
 Eigen::VectorXf zoom_image(const Eigen::Ref<const Eigen::VectorXf>& image, int size, double k);
 
+/// Where a pixel coordinate `p` of an image lands when the image is magnified by k about `centre` (one axis):
+/// k p + (1 - k) centre. zoom_images moves the principal point of a kFocal camera so; PoseNet's zoom TTA maps a
+/// reading of the magnified image back with unmagnified_coordinate.
+inline double magnified_coordinate(double p, double centre, double k) { return k * p + (1 - k) * centre; }
+/// The inverse of magnified_coordinate: centre + (p - centre) / k.
+inline double unmagnified_coordinate(double p, double centre, double k) { return centre + (p - centre) / k; }
+
 /// The largest magnification that keeps the image's non-white pixels (any channel below 1 - 0.05) at least one
 /// pixel inside its border; +infinity for an all-white image.
 double max_zoom_inside(const Eigen::Ref<const Eigen::VectorXf>& image, int size);

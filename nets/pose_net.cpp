@@ -238,8 +238,8 @@ PosePrediction PoseNet::predict(const MatrixXfR& images) {
     if (k != 1) {
       cam.t *= k;
       const double c = 0.5 * S;
-      cam.K(0, 2) = c + (cam.K(0, 2) - c) / k;
-      cam.K(1, 2) = c + (cam.K(1, 2) - c) / k;
+      cam.K(0, 2) = unmagnified_coordinate(cam.K(0, 2), c, k);
+      cam.K(1, 2) = unmagnified_coordinate(cam.K(1, 2), c, k);
     }
     return std::make_pair(v, cam);
   };

@@ -349,6 +349,7 @@ TEST_CASE("recon outputs: the format follows -o, a folder only for a folder inpu
       {"recon " + img + " -o " + (dir / "k7.obj").string() + " --pose-zoom-tta 0.9,1 --res 33",
        "--pose-zoom-tta wants magnifications in [0.5, 2] other than 1"},
       {"recon " + img + " -o " + (dir / "k8.obj").string() + " --pose-zoom-tta 3 --res 33", "--pose-zoom-tta wants"},
+      {"recon " + img + " -o " + (dir / "k9.obj").string() + " --pose-zoom-tta 0.9, --res 33", "--pose-zoom-tta wants"},
       {"recon " + img + " -o " + (dir / "k3.obj").string() + " --pose-distances 3,2 --res 33", "0 < MIN <= MAX"},
       {"recon " + img + " -o " + (dir / "l.obj").string() + " --refine-res 17" + cam, "applies with --refine-camera"},
       {"recon " + img + " -o " + (dir / "m.obj").string() + " --dense --safety 3" + cam, "--safety applies"},

@@ -329,6 +329,16 @@ TEST_CASE("zoom_image: a centred square grows and shrinks by the factor, white o
   CHECK_THROWS_AS(zoom_image(sq, S, 0.0), InvalidInput);
 }
 
+TEST_CASE("magnified_coordinate: k times the offset from the centre, unmagnified_coordinate undoes it") {
+  for (const double k : {0.5, 0.8, 1.0, 1.25, 2.0})
+    for (const double p : {0.0, 31.5, 68.5, 100.25}) {
+      const double c = 68.5, m = magnified_coordinate(p, c, k);
+      CHECK(m - c == doctest::Approx(k * (p - c)));
+      CHECK(unmagnified_coordinate(m, c, k) == doctest::Approx(p));
+    }
+  CHECK(magnified_coordinate(68.5, 68.5, 1.7) == doctest::Approx(68.5));  // the centre stays
+}
+
 TEST_CASE("zoom_images: seeded and thread-independent, camera distance divided by the applied zoom") {
   const int S = 21, B = 12;
   MatrixXfR src(B, 3 * S * S);
