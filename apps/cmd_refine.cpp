@@ -41,6 +41,7 @@ std::function<int()> setup_refine(CLI::App& app) {
     bool json = false, adversarial = false, carve = false;
     CarveSettings carve_settings;
     double w_adversarial = 1.0;
+    long exact_after = -1;  // -1: the default, which depends on the start
   };
   auto o = std::make_shared<Opts>();
   RefineSettings& s = o->s;
@@ -112,6 +113,17 @@ std::function<int()> setup_refine(CLI::App& app) {
   app.add_option("--sigma", s.raster.sigma, "edge softness of the silhouettes, in pixels^2")
       ->check(positive())
       ->capture_default_str();
+  app.add_option("--exact-silhouette", s.exact_silhouette,
+                 "samples per pixel side of the sharp silhouette whose difference with the target drives the "
+                 "silhouette term, the soft one only carrying it to the vertices (the soft silhouette alone is "
+                 "dilated and shrinks the mesh); 3 = `render`'s sampling; 0 = the soft silhouette's own error, the "
+                 "paper's loss")
+      ->check(CLI::Range(0, 8))
+      ->capture_default_str();
+  app.add_option("--exact-after", o->exact_after,
+                 "steps with the soft silhouette's own error before the exact one takes over (the soft error pulls a "
+                 "distant mesh in); default: three quarters of --iters from a sphere, 0 from a mesh file or with --carve")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--gamma", s.raster.gamma, "depth softness of the colour blending")
       ->check(positive())
       ->capture_default_str();
@@ -179,6 +191,7 @@ std::function<int()> setup_refine(CLI::App& app) {
       carve_json = {{"resolution", o->carve_settings.resolution}, {"init_volume", cr.init_volume},
                     {"volume", cr.volume}, {"vertices", cr.vertices}, {"faces", cr.faces}, {"seconds", cr.seconds}};
     }
+    s.exact_after = o->exact_after >= 0 ? o->exact_after : (o->init == "sphere" && !o->carve ? s.iters * 3 / 4 : 0);
     std::fprintf(stderr, "refine: %zu views of %d x %d px, %ld vertices, %ld steps of %d views\n", views.size(),
                  views[0].camera.width, views[0].camera.height, static_cast<long>(init.V.rows()), s.iters,
                  std::min<int>(s.views_per_step, static_cast<int>(views.size())));
@@ -236,6 +249,8 @@ std::function<int()> setup_refine(CLI::App& app) {
                                     {"critic", last.critic}}},
                           {"adversarial", s.w_adversarial > 0},
                           {"lit", s.raster.lit},
+                          {"exact_silhouette", s.exact_silhouette},
+                          {"exact_after", s.exact_after},
                           {"curve", {{"csv", csv}, {"svg", svg}}},
                           {"preview", preview}};
     if (o->json)

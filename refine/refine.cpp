@@ -1,11 +1,14 @@
 #include "refine/refine.h"
 
+#include "camera/silhouette.h"
 #include "core/error.h"
 #include "core/mesh_io.h"
 #include "core/primitives.h"
 #include "core/random.h"
 #include "nets/layers.h"
 #include "refine/regularisers.h"
+
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
@@ -98,6 +101,8 @@ void validate_refine_settings(const RefineSettings& s) {
   require(s.log_every >= 1, "refine: log_every must be at least 1");
   require(std::isfinite(s.w_adversarial) && s.w_adversarial >= 0, "refine: the adversarial weight must be >= 0");
   require(s.critic.size >= 16, "refine: the critic's input must be at least 16 px");
+  require(s.exact_silhouette >= 0 && s.exact_silhouette <= 8, "refine: the exact silhouette's supersampling must be in 0..8");
+  require(s.exact_after >= -1, "refine: the soft steps before the exact silhouette must be >= 0 (or -1: three quarters)");
   validate_soft_raster_settings(s.raster);
 }
 
@@ -181,6 +186,7 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
   }
   const int nviews = static_cast<int>(views.size());
   const int k = std::min(s.views_per_step, nviews);
+  const long exact_after = s.exact_after >= 0 ? s.exact_after : s.iters * 3 / 4;
   std::vector<int> order(static_cast<size_t>(nviews));
   RefineResult res;
   long step = 0;
@@ -195,6 +201,18 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
     row.step = step + 1;
     std::vector<SoftRasterCache> caches(static_cast<size_t>(k));
     std::vector<Image> d_alpha(static_cast<size_t>(k)), d_rgb(static_cast<size_t>(k)), rendered(static_cast<size_t>(k));
+    // The exact silhouettes of the step's views (single-threaded renders, so one view per task).
+    std::vector<Image> exact;
+    if (s.exact_silhouette > 0 && step >= exact_after) {
+      Mesh m;
+      m.V = V;
+      m.F = F;
+      const SilhouetteRenderer sharp(m, s.exact_silhouette);
+      exact.resize(static_cast<size_t>(k));
+      tbb::parallel_for(0, k, [&](int i) {
+        exact[static_cast<size_t>(i)] = sharp.render(views[static_cast<size_t>(order[static_cast<size_t>(i)])].camera);
+      });
+    }
     for (int i = 0; i < k; ++i) {
       const TargetView& tv = views[static_cast<size_t>(order[static_cast<size_t>(i)])];
       SoftRasterCache& cache = caches[static_cast<size_t>(i)];
@@ -204,8 +222,10 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
       Image da(tv.camera.width, tv.camera.height, 1), dc;
       double sil = 0, rgb = 0;
       // Loss per view: w_s mean (alpha - target)^2 + w_rgb mean (rgb - target)^2; the step's: their mean over views.
+      // With the exact silhouette, alpha is its coverage and the soft silhouette's gradient carries the residual.
+      const Image& alpha = exact.empty() ? im.alpha : exact[static_cast<size_t>(i)];
       for (size_t q = 0; q < da.data.size(); ++q) {
-        const double e = double(im.alpha.data[q]) - tv.alpha.data[q];
+        const double e = double(alpha.data[q]) - tv.alpha.data[q];
         sil += e * e;
         da.data[q] = static_cast<float>(s.w_silhouette * 2 * e / (npx * k));
       }

@@ -46,6 +46,9 @@ TEST_CASE("sdfkit refine: a sphere fitted to a rendered box, files beside the me
   CHECK(j.at("vertices") == 162);
   CHECK(j.at("seconds_per_step").get<double>() > 0);
   CHECK(j.at("loss").at("silhouette").get<double>() < 0.05);
+  // From a sphere the exact silhouette takes over after three quarters of the steps.
+  CHECK(j.at("exact_silhouette") == 3);
+  CHECK(j.at("exact_after") == 90);
   for (const char* f : {"box.ply", "box.loss.csv", "box.loss.svg", "box.preview.png"})
     CHECK_MESSAGE(fs::exists(dir / "out" / f), f);
   // 12 rows (every 10 steps) under the header.
@@ -90,6 +93,7 @@ TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual h
   CHECK(c.at("init_volume").get<double>() == doctest::Approx(4.19).epsilon(0.02));
   CHECK(c.at("volume").get<double>() < 0.5 * c.at("init_volume").get<double>());
   CHECK(j.at("vertices") == c.at("vertices"));
+  CHECK(j.at("exact_after") == 0);  // the hull already fits the silhouettes
   r = test::run_sdfkit("eval " + out + " " + gt + " --json --no-emd");
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(Json::parse(r.out).at("metrics").at("iou").get<double>() > 75);
@@ -105,6 +109,13 @@ TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual h
   r = test::run_sdfkit("refine " + views + " -o " + out + " --iters 2 --sphere-level 1 --preview 0 --json");
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(Json::parse(r.out).at("carve").is_null());
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --iters 4 --exact-after 3 --exact-silhouette 2 --sphere-level 1 --preview 0 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out).at("exact_after") == 3);
+  CHECK(Json::parse(r.out).at("exact_silhouette") == 2);
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --exact-silhouette 9");
+  CHECK(r.code != 0);
+  CHECK(r.err.find("--exact-silhouette") != std::string::npos);
   r = test::run_sdfkit("refine " + views + " -o " + out + " --carve-res 33");
   CHECK(r.code != 0);
   CHECK(r.err.find("--carve") != std::string::npos);

@@ -79,6 +79,48 @@ TEST_CASE("refine: a sphere deforms into a box's silhouettes, seeded and thread-
   fs::remove_all(dir);
 }
 
+namespace {
+/// Mean distance of the vertices from the origin.
+double mean_radius(const Points& V) { return V.rowwise().norm().mean(); }
+}  // namespace
+
+TEST_CASE("refine: started on the object itself, the exact silhouette keeps it and the soft one shrinks it") {
+  // An ellipsoid (an icosphere scaled per axis) seen in 12 views of 64 px rendered at `render`'s 3 x 3 samples.
+  const fs::path dir = test::scratch_dir("refine_exact");
+  Mesh obj = make_icosphere(Vec3::Zero(), 1.0, 3);
+  obj.V.col(0) *= 0.75;
+  obj.V.col(1) *= 0.45;
+  obj.V.col(2) *= 0.6;
+  ViewSetSettings vs;
+  vs.views = 12;
+  vs.size = 64;
+  vs.elevation_min = -20;
+  vs.elevation_max = 50;
+  REQUIRE(vs.render.supersampling == 3);
+  render_view_set(obj, (dir / "views").string(), vs, 3);
+  const std::vector<TargetView> views = read_target_views((dir / "views").string());
+  RefineSettings s;
+  s.iters = 100;
+  s.views_per_step = 4;
+  s.w_rgb = s.w_edge = s.w_normal = s.w_laplacian = 0;  // the silhouette term alone
+  s.log_every = 100;
+  const double r0 = mean_radius(obj.V);
+  s.exact_silhouette = 3;
+  s.exact_after = 0;
+  const RefineResult exact = refine_mesh(views, obj, s);
+  s.exact_silhouette = 0;
+  const RefineResult soft = refine_mesh(views, obj, s);
+  const double shrink_exact = 1 - mean_radius(exact.mesh.V) / r0, shrink_soft = 1 - mean_radius(soft.mesh.V) / r0;
+  INFO("shrinkage: exact ", shrink_exact, ", soft ", shrink_soft);
+  CHECK(std::abs(shrink_exact) < 0.002);
+  CHECK(shrink_soft > 0.005);
+  const double iou_exact = mean_silhouette_iou(exact.mesh, views), iou_soft = mean_silhouette_iou(soft.mesh, views);
+  INFO("silhouette IoU: exact ", iou_exact, ", soft ", iou_soft);
+  CHECK(iou_exact > 0.98);  // 2 x 2 samples against the targets' 3 x 3
+  CHECK(iou_soft < iou_exact - 0.02);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("refine: view folders and settings are checked, naming the file") {
   const fs::path dir = test::scratch_dir("refine_bad");
   CHECK_THROWS_AS(read_target_views((dir / "none").string()), IoError);
