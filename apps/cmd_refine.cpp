@@ -41,7 +41,6 @@ std::function<int()> setup_refine(CLI::App& app) {
     bool json = false, adversarial = false, carve = false;
     CarveSettings carve_settings;
     double w_adversarial = 1.0;
-    long exact_after = -1;  // -1: the default, which depends on the start
   };
   auto o = std::make_shared<Opts>();
   RefineSettings& s = o->s;
@@ -92,15 +91,17 @@ std::function<int()> setup_refine(CLI::App& app) {
   app.add_option("--w-rgb", s.w_rgb, "weight of the RGB squared error (0: silhouettes only, faster)")
       ->check(non_negative())
       ->capture_default_str();
-  app.add_option("--w-edge", s.w_edge, "weight of the edge-length regulariser")
-      ->check(non_negative())
-      ->capture_default_str();
+  CLI::Option* w_edge = app.add_option("--w-edge", s.w_edge,
+                                       "weight of the edge-length regulariser (default 0.1 from a sphere, 1, the "
+                                       "paper's, from a mesh file)")
+                            ->check(non_negative());
   app.add_option("--w-normal", s.w_normal, "weight of the normal-consistency regulariser")
       ->check(non_negative())
       ->capture_default_str();
-  app.add_option("--w-laplacian", s.w_laplacian, "weight of the Laplacian smoothing regulariser")
-      ->check(non_negative())
-      ->capture_default_str();
+  CLI::Option* w_laplacian = app.add_option("--w-laplacian", s.w_laplacian,
+                                            "weight of the Laplacian smoothing regulariser (default 0.1 from a "
+                                            "sphere, 1, the paper's, from a mesh file)")
+                                 ->check(non_negative());
   app.add_flag("--adversarial", o->adversarial,
                "train the paper's critic (dense blocks + self-attention, nets/critic.h) against the renders and add "
                "its verdict to the loss");
@@ -113,16 +114,17 @@ std::function<int()> setup_refine(CLI::App& app) {
   app.add_option("--sigma", s.raster.sigma, "edge softness of the silhouettes, in pixels^2")
       ->check(positive())
       ->capture_default_str();
-  app.add_option("--exact-silhouette", s.exact_silhouette,
-                 "samples per pixel side of the sharp silhouette whose difference with the target drives the "
-                 "silhouette term, the soft one only carrying it to the vertices (the soft silhouette alone is "
-                 "dilated and shrinks the mesh); 3 = `render`'s sampling; 0 = the soft silhouette's own error, the "
-                 "paper's loss")
-      ->check(CLI::Range(0, 8))
-      ->capture_default_str();
-  app.add_option("--exact-after", o->exact_after,
+  CLI::Option* exact = app.add_option(
+                             "--exact-silhouette", s.exact_silhouette,
+                             "samples per pixel side of the sharp silhouette whose difference with the target drives "
+                             "the silhouette term after --exact-after steps, the soft one only carrying it to the "
+                             "vertices (the soft silhouette alone is dilated and shrinks the mesh); 3 = `render`'s "
+                             "sampling; 0 = the soft silhouette's own error, the paper's loss (default 3 from a "
+                             "sphere, 0 from a mesh file)")
+                         ->check(CLI::Range(0, 8));
+  app.add_option("--exact-after", s.exact_after,
                  "steps with the soft silhouette's own error before the exact one takes over (the soft error pulls a "
-                 "distant mesh in); default: three quarters of --iters from a sphere, 0 from a mesh file or with --carve")
+                 "distant mesh in); default: three quarters of --iters")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--gamma", s.raster.gamma, "depth softness of the colour blending")
       ->check(positive())
@@ -146,7 +148,7 @@ std::function<int()> setup_refine(CLI::App& app) {
       ->check(non_negative())
       ->capture_default_str();
   app.add_flag("--json", o->json, "print a JSON summary on stdout");
-  return [o] {
+  return [o, exact, w_edge, w_laplacian] {
     RefineSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
     s.w_adversarial = o->adversarial ? o->w_adversarial : 0.0;
@@ -191,7 +193,14 @@ std::function<int()> setup_refine(CLI::App& app) {
       carve_json = {{"resolution", o->carve_settings.resolution}, {"init_volume", cr.init_volume},
                     {"volume", cr.volume}, {"vertices", cr.vertices}, {"faces", cr.faces}, {"seconds", cr.seconds}};
     }
-    s.exact_after = o->exact_after >= 0 ? o->exact_after : (o->init == "sphere" && !o->carve ? s.iters * 3 / 4 : 0);
+    // From a mesh file the paper's loss measured best (docs/results/refine.md, recon rows): those defaults differ.
+    if (o->init != "sphere") {
+      const RefineSettings paper = paper_loss(s);
+      if (!exact->count()) s.exact_silhouette = paper.exact_silhouette;
+      if (!w_edge->count()) s.w_edge = paper.w_edge;
+      if (!w_laplacian->count()) s.w_laplacian = paper.w_laplacian;
+    }
+    if (s.exact_after < 0) s.exact_after = s.iters * 3 / 4;
     std::fprintf(stderr, "refine: %zu views of %d x %d px, %ld vertices, %ld steps of %d views\n", views.size(),
                  views[0].camera.width, views[0].camera.height, static_cast<long>(init.V.rows()), s.iters,
                  std::min<int>(s.views_per_step, static_cast<int>(views.size())));
@@ -250,7 +259,9 @@ std::function<int()> setup_refine(CLI::App& app) {
                           {"adversarial", s.w_adversarial > 0},
                           {"lit", s.raster.lit},
                           {"exact_silhouette", s.exact_silhouette},
-                          {"exact_after", s.exact_after},
+                          {"exact_after", s.exact_silhouette > 0 ? Json(s.exact_after) : Json(nullptr)},
+                          {"weights", {{"silhouette", s.w_silhouette}, {"rgb", s.w_rgb}, {"edge", s.w_edge},
+                                       {"normal", s.w_normal}, {"laplacian", s.w_laplacian}}},
                           {"curve", {{"csv", csv}, {"svg", svg}}},
                           {"preview", preview}};
     if (o->json)

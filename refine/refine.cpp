@@ -91,6 +91,13 @@ std::vector<TargetView> read_target_views(const std::string& dir, const Eigen::V
   return out;
 }
 
+RefineSettings paper_loss(RefineSettings s) {
+  s.exact_silhouette = 0;
+  s.w_edge = 1;
+  s.w_laplacian = 1;
+  return s;
+}
+
 void validate_refine_settings(const RefineSettings& s) {
   require(s.iters >= 0, "refine: --iters must be >= 0");
   require(s.views_per_step >= 1, "refine: --views-per-step must be at least 1");

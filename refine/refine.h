@@ -41,7 +41,8 @@ struct RefineSettings {
   double lr = 1.0, momentum = 0.9; ///< SGD on positions and colours (PyTorch's: buf = mu buf + g; x -= lr buf)
   /// Regularisers weaker than the paper's (edge 1, Laplacian 1): against the exact silhouette's residual those pull
   /// the surface inside the silhouettes (the cow, 1000 steps of the paper's loss, then 1000 with the exact
-  /// silhouette: 87.7% IoU with both weights at 1, 91.2 at 0.3, 92.5 at 0.1).
+  /// silhouette: 87.7% IoU with both weights at 1, 91.2 at 0.3, 92.5 at 0.1). From a recon mesh, whose thin parts
+  /// they hold together, the paper's weights and loss do better (paper_loss).
   double w_silhouette = 1, w_rgb = 1, w_edge = 0.1, w_normal = 0.01, w_laplacian = 0.1;
   /// Weight of the adversarial term (0 = no critic): the generator's binary cross-entropy of the critic's verdict
   /// on the step's renders against "real" (nets/critic.h); the critic is trained on the same steps (Adam, real
@@ -68,8 +69,9 @@ struct RefineSettings {
   int exact_silhouette = 3;
   /// Steps with the soft silhouette's own error before the exact one takes over; -1: three quarters of `iters`
   /// (for a start far from the object, such as a sphere: from the cow, elephant and camel of docs/results/refine.md,
-  /// 2000 steps, mean IoU 89.2% switching at 1000, 89.9 at 1500, 90.2 at 1750; the soft error alone 86.3); a start
-  /// that already fits the silhouettes (a recon mesh, the visual hull), 0.
+  /// 2000 steps, mean IoU 89.2% switching at 1000, 89.9 at 1500, 90.2 at 1750; the soft error alone 86.3). Also
+  /// from the visual hull: the exact error from the first step let the camel's carved hull break up (64% IoU;
+  /// 93.4 after 1500 soft steps).
   long exact_after = -1;
   uint64_t seed = 1;               ///< draws the views of every step
   /// Coarse to fine: after each of these steps every face is split into four (subdivide_midpoints), momentum
@@ -79,6 +81,11 @@ struct RefineSettings {
   int log_every = 10;              ///< a loss-curve row every N steps (and the last)
   double time_limit_seconds = 0;   ///< stop early after this long (0 = no limit)
 };
+
+/// `s` with the refinement paper's loss: the soft silhouette's own error throughout (exact_silhouette 0) and its
+/// edge and Laplacian weights (1). `sdfkit refine` starts from it for a mesh file (a recon result), where it measured
+/// best (docs/results/refine.md).
+RefineSettings paper_loss(RefineSettings s);
 
 /// Throws InvalidInput naming the bad field.
 void validate_refine_settings(const RefineSettings& settings);

@@ -93,7 +93,8 @@ TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual h
   CHECK(c.at("init_volume").get<double>() == doctest::Approx(4.19).epsilon(0.02));
   CHECK(c.at("volume").get<double>() < 0.5 * c.at("init_volume").get<double>());
   CHECK(j.at("vertices") == c.at("vertices"));
-  CHECK(j.at("exact_after") == 0);  // the hull already fits the silhouettes
+  CHECK(j.at("exact_after") == 7);  // from the sphere cut to the hull: the same schedule
+  CHECK(j.at("weights").at("edge") == 0.1);
   r = test::run_sdfkit("eval " + out + " " + gt + " --json --no-emd");
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(Json::parse(r.out).at("metrics").at("iou").get<double>() > 75);
@@ -140,6 +141,18 @@ TEST_CASE("sdfkit refine --init MESH: small components of the starting mesh are 
   r = test::run_sdfkit("refine " + views + " -o " + out + " --init " + init + " --iters 2 --init-keep-fraction 0 --json");
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(Json::parse(r.out).at("init_components_removed") == 0);
+  // From a mesh file the paper's loss is the default: the soft silhouette throughout, regularisers 1, unless asked.
+  CHECK(Json::parse(r.out).at("exact_silhouette") == 0);
+  CHECK(Json::parse(r.out).at("exact_after").is_null());
+  CHECK(Json::parse(r.out).at("weights").at("edge") == 1.0);
+  CHECK(Json::parse(r.out).at("weights").at("laplacian") == 1.0);
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --init " + init +
+                       " --iters 4 --exact-silhouette 3 --w-edge 0.1 --preview 0 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out).at("exact_silhouette") == 3);
+  CHECK(Json::parse(r.out).at("exact_after") == 3);
+  CHECK(Json::parse(r.out).at("weights").at("edge") == 0.1);
+  CHECK(Json::parse(r.out).at("weights").at("laplacian") == 1.0);
   CHECK(Json::parse(r.out).at("vertices") == 12);
   r = test::run_sdfkit("refine " + views + " -o " + out + " --init " + init + " --init-keep-fraction 2");
   CHECK(r.code != 0);
