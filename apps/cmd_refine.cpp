@@ -200,7 +200,7 @@ std::function<int()> setup_refine(CLI::App& app) {
       if (!w_edge->count()) s.w_edge = paper.w_edge;
       if (!w_laplacian->count()) s.w_laplacian = paper.w_laplacian;
     }
-    if (s.exact_after < 0) s.exact_after = s.iters * 3 / 4;
+    s.exact_after = exact_silhouette_from(s);
     std::fprintf(stderr, "refine: %zu views of %d x %d px, %ld vertices, %ld steps of %d views\n", views.size(),
                  views[0].camera.width, views[0].camera.height, static_cast<long>(init.V.rows()), s.iters,
                  std::min<int>(s.views_per_step, static_cast<int>(views.size())));

@@ -98,6 +98,8 @@ RefineSettings paper_loss(RefineSettings s) {
   return s;
 }
 
+long exact_silhouette_from(const RefineSettings& s) { return s.exact_after >= 0 ? s.exact_after : s.iters * 3 / 4; }
+
 void validate_refine_settings(const RefineSettings& s) {
   require(s.iters >= 0, "refine: --iters must be >= 0");
   require(s.views_per_step >= 1, "refine: --views-per-step must be at least 1");
@@ -193,7 +195,7 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
   }
   const int nviews = static_cast<int>(views.size());
   const int k = std::min(s.views_per_step, nviews);
-  const long exact_after = s.exact_after >= 0 ? s.exact_after : s.iters * 3 / 4;
+  const long exact_after = exact_silhouette_from(s);
   std::vector<int> order(static_cast<size_t>(nviews));
   RefineResult res;
   long step = 0;

@@ -87,6 +87,9 @@ struct RefineSettings {
 /// best (docs/results/refine.md).
 RefineSettings paper_loss(RefineSettings s);
 
+/// The first step that uses the exact silhouette: `exact_after`, or three quarters of `iters` when it is -1.
+long exact_silhouette_from(const RefineSettings& s);
+
 /// Throws InvalidInput naming the bad field.
 void validate_refine_settings(const RefineSettings& settings);
 
