@@ -91,6 +91,10 @@ std::function<int()> setup_refine(CLI::App& app) {
   app.add_option("--w-rgb", s.w_rgb, "weight of the RGB squared error (0: silhouettes only, faster)")
       ->check(non_negative())
       ->capture_default_str();
+  CLI::Option* rgb_vertices = app.add_flag(
+      "--rgb-moves-vertices,!--no-rgb-moves-vertices", s.rgb_moves_vertices,
+      "let the RGB error's gradient move the vertices, not only fit their colours (default: off from a sphere, on, the "
+      "paper's, from a mesh file; always on with --lit or --adversarial)");
   CLI::Option* w_edge = app.add_option("--w-edge", s.w_edge,
                                        "weight of the edge-length regulariser (default 0.1 from a sphere, 1, the "
                                        "paper's, from a mesh file)")
@@ -148,7 +152,7 @@ std::function<int()> setup_refine(CLI::App& app) {
       ->check(non_negative())
       ->capture_default_str();
   app.add_flag("--json", o->json, "print a JSON summary on stdout");
-  return [o, exact, w_edge, w_laplacian] {
+  return [o, exact, w_edge, w_laplacian, rgb_vertices] {
     RefineSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
     s.w_adversarial = o->adversarial ? o->w_adversarial : 0.0;
@@ -199,6 +203,7 @@ std::function<int()> setup_refine(CLI::App& app) {
       if (!exact->count()) s.exact_silhouette = paper.exact_silhouette;
       if (!w_edge->count()) s.w_edge = paper.w_edge;
       if (!w_laplacian->count()) s.w_laplacian = paper.w_laplacian;
+      if (!rgb_vertices->count()) s.rgb_moves_vertices = paper.rgb_moves_vertices;
     }
     s.exact_after = exact_silhouette_from(s);
     std::fprintf(stderr, "refine: %zu views of %d x %d px, %ld vertices, %ld steps of %d views\n", views.size(),
@@ -258,6 +263,7 @@ std::function<int()> setup_refine(CLI::App& app) {
                                     {"critic", last.critic}}},
                           {"adversarial", s.w_adversarial > 0},
                           {"lit", s.raster.lit},
+                          {"rgb_moves_vertices", s.rgb_moves_vertices || s.raster.lit || s.w_adversarial > 0},
                           {"exact_silhouette", s.exact_silhouette},
                           {"exact_after", s.exact_silhouette > 0 ? Json(s.exact_after) : Json(nullptr)},
                           {"weights", {{"silhouette", s.w_silhouette}, {"rgb", s.w_rgb}, {"edge", s.w_edge},

@@ -95,6 +95,7 @@ RefineSettings paper_loss(RefineSettings s) {
   s.exact_silhouette = 0;
   s.w_edge = 1;
   s.w_laplacian = 1;
+  s.rgb_moves_vertices = true;
   return s;
 }
 
@@ -282,9 +283,20 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
       critic->backward(fake_small, logits, dlogits, nullptr);
       critic->step();
     }
-    for (int i = 0; i < k; ++i)
-      rasterizer->backward(caches[static_cast<size_t>(i)], d_alpha[static_cast<size_t>(i)], d_rgb[static_cast<size_t>(i)],
-                          gV, gC);
+    const bool rgb_to_vertices = s.rgb_moves_vertices || raster.lit || adversarial;
+    Points unusedV, unusedC;
+    for (int i = 0; i < k; ++i) {
+      const SoftRasterCache& cache = caches[static_cast<size_t>(i)];
+      const Image& da = d_alpha[static_cast<size_t>(i)];
+      const Image& dc = d_rgb[static_cast<size_t>(i)];
+      if (rgb_to_vertices || dc.empty()) {
+        rasterizer->backward(cache, da, dc, gV, gC);
+      } else {
+        // The silhouette moves the vertices, the colour term only the colours.
+        rasterizer->backward(cache, da, Image(), gV, unusedC);
+        rasterizer->backward(cache, Image(da.width, da.height, 1), dc, unusedV, gC);
+      }
+    }
     row.edge = edge_length_loss(V, topo, s.w_edge, gV);
     row.normal = normal_consistency_loss(V, F, topo, s.w_normal, gV);
     row.laplacian = laplacian_loss(V, topo, s.w_laplacian, gV);

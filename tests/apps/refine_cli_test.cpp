@@ -49,6 +49,7 @@ TEST_CASE("sdfkit refine: a sphere fitted to a rendered box, files beside the me
   // From a sphere the exact silhouette takes over after three quarters of the steps.
   CHECK(j.at("exact_silhouette") == 3);
   CHECK(j.at("exact_after") == 90);
+  CHECK(j.at("rgb_moves_vertices") == false);  // the colour term fits the colours only
   for (const char* f : {"box.ply", "box.loss.csv", "box.loss.svg", "box.preview.png"})
     CHECK_MESSAGE(fs::exists(dir / "out" / f), f);
   // 12 rows (every 10 steps) under the header.
@@ -146,13 +147,15 @@ TEST_CASE("sdfkit refine --init MESH: small components of the starting mesh are 
   CHECK(Json::parse(r.out).at("exact_after").is_null());
   CHECK(Json::parse(r.out).at("weights").at("edge") == 1.0);
   CHECK(Json::parse(r.out).at("weights").at("laplacian") == 1.0);
+  CHECK(Json::parse(r.out).at("rgb_moves_vertices") == true);
   r = test::run_sdfkit("refine " + views + " -o " + out + " --init " + init +
-                       " --iters 4 --exact-silhouette 3 --w-edge 0.1 --preview 0 --json");
+                       " --iters 4 --exact-silhouette 3 --w-edge 0.1 --no-rgb-moves-vertices --preview 0 --json");
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(Json::parse(r.out).at("exact_silhouette") == 3);
   CHECK(Json::parse(r.out).at("exact_after") == 3);
   CHECK(Json::parse(r.out).at("weights").at("edge") == 0.1);
   CHECK(Json::parse(r.out).at("weights").at("laplacian") == 1.0);
+  CHECK(Json::parse(r.out).at("rgb_moves_vertices") == false);
   CHECK(Json::parse(r.out).at("vertices") == 12);
   r = test::run_sdfkit("refine " + views + " -o " + out + " --init " + init + " --init-keep-fraction 2");
   CHECK(r.code != 0);

@@ -121,6 +121,32 @@ TEST_CASE("refine: started on the object itself, the exact silhouette keeps it a
   fs::remove_all(dir);
 }
 
+TEST_CASE("refine: by default the colour term fits the colours and leaves the positions to the silhouettes") {
+  const fs::path dir = box_views("refine_rgb");
+  const std::vector<TargetView> views = read_target_views((dir / "views").string());
+  RefineSettings s;
+  s.iters = 40;
+  s.views_per_step = 3;
+  s.log_every = 40;
+  const Mesh start = refine_sphere(2, 1.0);
+  REQUIRE(!s.rgb_moves_vertices);
+  const RefineResult colours_only = refine_mesh(views, start, s);
+  s.w_rgb = 0;
+  const RefineResult silhouettes = refine_mesh(views, start, s);
+  // The same positions as without the colour term, bit for bit; the colours fitted (the box renders lit grey).
+  CHECK((colours_only.mesh.V.array() == silhouettes.mesh.V.array()).all());
+  CHECK(colours_only.curve.back().rgb > 0);
+  CHECK((colours_only.mesh.colors.array() - 0.5f).abs().maxCoeff() > 0.01f);
+  CHECK((silhouettes.mesh.colors.array() == 0.5f).all());
+  // The paper's way: the colour term moves the vertices too.
+  s.w_rgb = 1;
+  s.rgb_moves_vertices = true;
+  const RefineResult both = refine_mesh(views, start, s);
+  CHECK((both.mesh.V.array() != silhouettes.mesh.V.array()).any());
+  CHECK(paper_loss(RefineSettings{}).rgb_moves_vertices);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("refine: view folders and settings are checked, naming the file") {
   const fs::path dir = test::scratch_dir("refine_bad");
   CHECK_THROWS_AS(read_target_views((dir / "none").string()), IoError);
