@@ -126,10 +126,11 @@ std::function<int()> setup_refine(CLI::App& app) {
                              "sampling; 0 = the soft silhouette's own error, the paper's loss (default 3 from a "
                              "sphere, 0 from a mesh file)")
                          ->check(CLI::Range(0, 8));
-  app.add_option("--exact-after", s.exact_after,
-                 "steps with the soft silhouette's own error before the exact one takes over (the soft error pulls a "
-                 "distant mesh in); default: three quarters of --iters")
-      ->check(CLI::NonNegativeNumber);
+  CLI::Option* exact_after =
+      app.add_option("--exact-after", s.exact_after,
+                     "steps with the soft silhouette's own error before the exact one takes over (the soft error pulls "
+                     "a distant mesh in); default: three quarters of --iters, half with --carve")
+          ->check(CLI::NonNegativeNumber);
   app.add_option("--gamma", s.raster.gamma, "depth softness of the colour blending")
       ->check(positive())
       ->capture_default_str();
@@ -152,7 +153,7 @@ std::function<int()> setup_refine(CLI::App& app) {
       ->check(non_negative())
       ->capture_default_str();
   app.add_flag("--json", o->json, "print a JSON summary on stdout");
-  return [o, exact, w_edge, w_laplacian, rgb_vertices] {
+  return [o, exact, exact_after, w_edge, w_laplacian, rgb_vertices] {
     RefineSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
     s.w_adversarial = o->adversarial ? o->w_adversarial : 0.0;
@@ -205,6 +206,9 @@ std::function<int()> setup_refine(CLI::App& app) {
       if (!w_laplacian->count()) s.w_laplacian = paper.w_laplacian;
       if (!rgb_vertices->count()) s.rgb_moves_vertices = paper.rgb_moves_vertices;
     }
+    // From the visual hull the exact error takes over at half the steps, not three quarters: the soft error's
+    // shrinkage costs more there than its pull (docs/refine.md).
+    if (o->carve && o->init == "sphere" && !exact_after->count()) s.exact_after = s.iters / 2;
     s.exact_after = exact_silhouette_from(s);
     std::fprintf(stderr, "refine: %zu views of %d x %d px, %ld vertices, %ld steps of %d views\n", views.size(),
                  views[0].camera.width, views[0].camera.height, static_cast<long>(init.V.rows()), s.iters,

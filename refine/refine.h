@@ -76,9 +76,9 @@ struct RefineSettings {
   int exact_silhouette = 3;
   /// Steps with the soft silhouette's own error before the exact one takes over; -1: three quarters of `iters`
   /// (for a start far from the object, such as a sphere: from the cow, elephant and camel of docs/results/refine.md,
-  /// 2000 steps, mean IoU 89.2% switching at 1000, 89.9 at 1500, 90.2 at 1750; the soft error alone 86.3). Also
-  /// from the visual hull: the exact error from the first step let the camel's carved hull break up (64% IoU;
-  /// 93.4 after 1500 soft steps).
+  /// 2000 steps, mean IoU 89.2% switching at 1000, 89.9 at 1500, 90.2 at 1750; the soft error alone 86.3). From
+  /// the visual hull, already close, half the steps do better (`sdfkit refine --carve` passes iters / 2:
+  /// docs/refine.md).
   long exact_after = -1;
   uint64_t seed = 1;               ///< draws the views of every step
   /// Coarse to fine: after each of these steps every face is split into four (subdivide_midpoints), momentum

@@ -94,7 +94,7 @@ TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual h
   CHECK(c.at("init_volume").get<double>() == doctest::Approx(4.19).epsilon(0.02));
   CHECK(c.at("volume").get<double>() < 0.5 * c.at("init_volume").get<double>());
   CHECK(j.at("vertices") == c.at("vertices"));
-  CHECK(j.at("exact_after") == 7);  // from the sphere cut to the hull: the same schedule
+  CHECK(j.at("exact_after") == 5);  // from the sphere cut to the hull: the exact error over the last half
   CHECK(j.at("weights").at("edge") == 0.1);
   r = test::run_sdfkit("eval " + out + " " + gt + " --json --no-emd");
   REQUIRE_MESSAGE(r.code == 0, r.err);
@@ -115,6 +115,10 @@ TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual h
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(Json::parse(r.out).at("exact_after") == 3);
   CHECK(Json::parse(r.out).at("exact_silhouette") == 2);
+  r = test::run_sdfkit("refine " + views + " -o " + out +
+                       " --carve --carve-res 41 --iters 4 --exact-after 3 --preview 0 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out).at("exact_after") == 3);  // given, so kept with --carve too
   r = test::run_sdfkit("refine " + views + " -o " + out + " --exact-silhouette 9");
   CHECK(r.code != 0);
   CHECK(r.err.find("--exact-silhouette") != std::string::npos);
