@@ -376,7 +376,7 @@ SoftImages SoftRasterizer::render(const Points& V, const Points& C, const Camera
 }
 
 void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, const Image& d_rgb, Points& dV,
-                              Points& dC) const {
+                              Points& dC, bool rgb_to_positions) const {
   const SoftRasterSettings& s = settings_;
   const Camera& cam = c.camera;
   const int W = cam.width, H = cam.height;
@@ -401,6 +401,8 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
     double shade[2];  // lit: d loss / d the face's diffuse factor and specular term
   };
   const bool lit = rgb && !c.shade.empty();
+  const bool rgb_pos = rgb && rgb_to_positions;  // the colour term's gradient also reaches the positions
+  const bool shade_pos = lit && rgb_to_positions;  // through the shading (face normals)
   std::vector<FragmentGrad> fg(c.fragments.size());
   const double zrange = s.z_far - s.z_near;
   tbb::parallel_for(0, H, [&](int i) {
@@ -454,22 +456,23 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
           return v;
         }();
         if (rgb) {
-          const double gw = gc.dot(colours[q] - pix) / den;
+          const double gw = rgb_pos ? gc.dot(colours[q] - pix) / den : 0.0;
           // weight = p exp((zeta - zmax) / gamma): d/dp = weight / p, d/dzeta = weight / gamma.
           gp += gw * (f.weight / f.p);
           const double gz = -gw * f.weight / s.gamma / zrange;
           const Eigen::Vector3d gshaded = gc * (f.weight / den);  // d loss / d the fragment's colour
           // Lit: colour = diffuse * albedo + specular, albedo = sum_m bary_m C_m.
           double diffuse = 1;
-          if (lit) {
-            diffuse = c.shade[2 * static_cast<size_t>(f.face)];
+          if (lit) diffuse = c.shade[2 * static_cast<size_t>(f.face)];
+          if (shade_pos) {
             g.shade[0] = gshaded.dot(fragment_albedo(c.C, faces_, f));
             g.shade[1] = gshaded.sum();
           }
           const Eigen::Vector3d gcol = gshaded * diffuse;  // d loss / d the fragment's albedo
           for (int m = 0; m < 3; ++m) {
-            glc[static_cast<size_t>(m)] += gcol.dot(c.C.row(tri[m]).transpose()) + gz * fv.z[static_cast<size_t>(m)];
             for (int ch = 0; ch < 3; ++ch) g.col[m][ch] += gcol[ch] * f.bary[m];
+            if (!rgb_pos) continue;
+            glc[static_cast<size_t>(m)] += gcol.dot(c.C.row(tri[m]).transpose()) + gz * fv.z[static_cast<size_t>(m)];
             g.xyz[m][2] += gz * f.bary[m];
           }
         }
@@ -487,7 +490,7 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
           g.xyz[geo.e1][0] += gd2 * -2 * geo.t * dx;
           g.xyz[geo.e1][1] += gd2 * -2 * geo.t * dy;
         }
-        if (rgb) {
+        if (rgb_pos) {
           // Clamp and renormalise: lc = m / M, m = clamp(lambda, 0, 1); d lc_i = (d m_i - lc_i d M) / M.
           double M = 0;
           clamped_barycentrics(geo.lambda, &M);
@@ -532,10 +535,10 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
 
   // Fragments to vertices in a fixed order: the same sums for any thread count.
   std::vector<Eigen::Vector3d> gview(static_cast<size_t>(nv), Eigen::Vector3d::Zero());
-  std::vector<double> gshade(lit ? c.shade.size() : 0, 0.0);
+  std::vector<double> gshade(shade_pos ? c.shade.size() : 0, 0.0);
   for (size_t q = 0; q < c.fragments.size(); ++q) {
     const auto tri = faces_.row(c.fragments[q].face);
-    if (lit) {
+    if (shade_pos) {
       gshade[2 * static_cast<size_t>(c.fragments[q].face)] += fg[q].shade[0];
       gshade[2 * static_cast<size_t>(c.fragments[q].face) + 1] += fg[q].shade[1];
     }
@@ -548,7 +551,7 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
   }
   for (Eigen::Index v = 0; v < nv; ++v)
     dV.row(v) += (vv[static_cast<size_t>(v)].jacobian.transpose() * gview[static_cast<size_t>(v)]).transpose();
-  if (!lit) return;
+  if (!shade_pos) return;
   // Shading to positions through the face normals: per face in parallel, then summed per vertex in face order.
   const ShadeModel model(s);
   std::vector<std::array<Eigen::Vector3d, 3>> gface(static_cast<size_t>(faces_.rows()));

@@ -98,9 +98,10 @@ class SoftRasterizer {
 
   /// Adds d loss / d V and d loss / d C (#V x 3 each, resized and zeroed when their size differs) for the images of
   /// `cache`'s forward pass, given d loss / d alpha and d loss / d rgb (images of the forward's size; rgb may be empty
-  /// when there is no colour loss).
-  void backward(const SoftRasterCache& cache, const Image& d_alpha, const Image& d_rgb, Points& dV,
-                Points& dC) const;
+  /// when there is no colour loss). With `rgb_to_positions` false, d_rgb reaches the colours only: dV is then the
+  /// gradient of the alpha term alone (as with an empty d_rgb) and dC the whole colour gradient, in one pass.
+  void backward(const SoftRasterCache& cache, const Image& d_alpha, const Image& d_rgb, Points& dV, Points& dC,
+                bool rgb_to_positions = true) const;
 
   [[nodiscard]] const SoftRasterSettings& settings() const { return settings_; }
   [[nodiscard]] const Faces& faces() const { return faces_; }

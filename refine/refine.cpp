@@ -283,20 +283,11 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
       critic->backward(fake_small, logits, dlogits, nullptr);
       critic->step();
     }
+    // Without rgb_moves_vertices the silhouette moves the vertices and the colour term only the colours.
     const bool rgb_to_vertices = s.rgb_moves_vertices || raster.lit || adversarial;
-    Points unusedV, unusedC;
-    for (int i = 0; i < k; ++i) {
-      const SoftRasterCache& cache = caches[static_cast<size_t>(i)];
-      const Image& da = d_alpha[static_cast<size_t>(i)];
-      const Image& dc = d_rgb[static_cast<size_t>(i)];
-      if (rgb_to_vertices || dc.empty()) {
-        rasterizer->backward(cache, da, dc, gV, gC);
-      } else {
-        // The silhouette moves the vertices, the colour term only the colours.
-        rasterizer->backward(cache, da, Image(), gV, unusedC);
-        rasterizer->backward(cache, Image(da.width, da.height, 1), dc, unusedV, gC);
-      }
-    }
+    for (int i = 0; i < k; ++i)
+      rasterizer->backward(caches[static_cast<size_t>(i)], d_alpha[static_cast<size_t>(i)], d_rgb[static_cast<size_t>(i)],
+                           gV, gC, rgb_to_vertices);
     row.edge = edge_length_loss(V, topo, s.w_edge, gV);
     row.normal = normal_consistency_loss(V, F, topo, s.w_normal, gV);
     row.laplacian = laplacian_loss(V, topo, s.w_laplacian, gV);

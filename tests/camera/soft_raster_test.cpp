@@ -115,6 +115,14 @@ TEST_CASE("soft raster: gradients to positions and colours match central differe
     CHECK(checked == 3 * m.V.rows());
     CHECK(worst < 1e-4);
     CHECK(dV.norm() > 1.0);  // the check is not vacuous
+    // The colour term kept off the positions: dV is the alpha term's alone, dC the whole colour gradient.
+    Points dV_alpha, dC_none, dV_split, dC_split;
+    r.backward(cache, L.wa, Image(), dV_alpha, dC_none);
+    r.backward(cache, L.wa, L.wc, dV_split, dC_split, false);
+    CHECK((dV_split.array() == dV_alpha.array()).all());
+    CHECK((dC_split.array() == dC.array()).all());
+    CHECK((dV_split - dV).norm() > 1e-3 * dV.norm());
+    CHECK(dC_none.norm() == 0);
   }
 }
 
