@@ -32,6 +32,15 @@ fs::path box_views(const std::string& tag, Mesh* box = nullptr) {
   return dir;
 }
 
+/// Settings for a short run on the box views: the defaults with fewer steps and views.
+RefineSettings short_run(long iters, int views_per_step, int log_every) {
+  RefineSettings s;
+  s.iters = iters;
+  s.views_per_step = views_per_step;
+  s.log_every = log_every;
+  return s;
+}
+
 double mean_silhouette_iou(const Mesh& m, const std::vector<TargetView>& views) {
   double s = 0;
   for (const auto& v : views) {
@@ -48,10 +57,7 @@ TEST_CASE("refine: a sphere deforms into a box's silhouettes, seeded and thread-
   const std::vector<TargetView> views = read_target_views((dir / "views").string());
   REQUIRE(views.size() == 8);
   CHECK(views[0].name == "00");
-  RefineSettings s;
-  s.iters = 150;
-  s.views_per_step = 3;
-  s.log_every = 50;
+  RefineSettings s = short_run(150, 3, 50);
   const Mesh start = refine_sphere(2, 1.0);
   const double before = mean_silhouette_iou(start, views);
   const RefineResult a = refine_mesh(views, start, s);
@@ -124,10 +130,7 @@ TEST_CASE("refine: started on the object itself, the exact silhouette keeps it a
 TEST_CASE("refine: by default the colour term fits the colours and leaves the positions to the silhouettes") {
   const fs::path dir = box_views("refine_rgb");
   const std::vector<TargetView> views = read_target_views((dir / "views").string());
-  RefineSettings s;
-  s.iters = 40;
-  s.views_per_step = 3;
-  s.log_every = 40;
+  RefineSettings s = short_run(40, 3, 40);
   const Mesh start = refine_sphere(2, 1.0);
   REQUIRE(!s.rgb_moves_vertices);
   const RefineResult colours_only = refine_mesh(views, start, s);
@@ -188,10 +191,7 @@ TEST_CASE("refine: view folders and settings are checked, naming the file") {
 TEST_CASE("refine with the adversarial critic: both losses reported, seeded and thread-independent") {
   const fs::path dir = box_views("refine_adv");
   const std::vector<TargetView> views = read_target_views((dir / "views").string());
-  RefineSettings s;
-  s.iters = 20;
-  s.views_per_step = 2;
-  s.log_every = 10;
+  RefineSettings s = short_run(20, 2, 10);
   s.w_adversarial = 0.5;
   s.critic.size = 16;
   s.critic.stem = 4;
