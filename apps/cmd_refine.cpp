@@ -267,7 +267,7 @@ std::function<int()> setup_refine(CLI::App& app) {
                                     {"critic", last.critic}}},
                           {"adversarial", s.w_adversarial > 0},
                           {"lit", s.raster.lit},
-                          {"rgb_moves_vertices", s.rgb_moves_vertices || s.raster.lit || s.w_adversarial > 0},
+                          {"rgb_moves_vertices", colour_moves_vertices(s)},
                           {"exact_silhouette", s.exact_silhouette},
                           {"exact_after", s.exact_silhouette > 0 ? Json(s.exact_after) : Json(nullptr)},
                           {"weights", {{"silhouette", s.w_silhouette}, {"rgb", s.w_rgb}, {"edge", s.w_edge},

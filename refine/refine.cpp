@@ -99,6 +99,10 @@ RefineSettings paper_loss(RefineSettings s) {
   return s;
 }
 
+bool colour_moves_vertices(const RefineSettings& s) {
+  return s.rgb_moves_vertices || s.raster.lit || s.w_adversarial > 0;
+}
+
 long exact_silhouette_from(const RefineSettings& s) { return s.exact_after >= 0 ? s.exact_after : s.iters * 3 / 4; }
 
 void validate_refine_settings(const RefineSettings& s) {
@@ -283,11 +287,10 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
       critic->backward(fake_small, logits, dlogits, nullptr);
       critic->step();
     }
-    // Without rgb_moves_vertices the silhouette moves the vertices and the colour term only the colours.
-    const bool rgb_to_vertices = s.rgb_moves_vertices || raster.lit || adversarial;
+    // Otherwise the silhouette moves the vertices and the colour term only the colours.
     for (int i = 0; i < k; ++i)
       rasterizer->backward(caches[static_cast<size_t>(i)], d_alpha[static_cast<size_t>(i)], d_rgb[static_cast<size_t>(i)],
-                           gV, gC, rgb_to_vertices);
+                           gV, gC, colour_moves_vertices(s));
     row.edge = edge_length_loss(V, topo, s.w_edge, gV);
     row.normal = normal_consistency_loss(V, F, topo, s.w_normal, gV);
     row.laplacian = laplacian_loss(V, topo, s.w_laplacian, gV);

@@ -94,6 +94,10 @@ struct RefineSettings {
 /// best (docs/results/refine.md).
 RefineSettings paper_loss(RefineSettings s);
 
+/// Whether the colour error's gradient moves the vertices: `rgb_moves_vertices`, or forced by shading
+/// (`raster.lit`) or the critic (`w_adversarial` > 0).
+bool colour_moves_vertices(const RefineSettings& s);
+
 /// The first step that uses the exact silhouette: `exact_after`, or three quarters of `iters` when it is -1.
 long exact_silhouette_from(const RefineSettings& s);
 
