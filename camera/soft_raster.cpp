@@ -426,11 +426,14 @@ void SoftRasterizer::backward(const SoftRasterCache& c, const Image& d_alpha, co
         den = c.background_weight[k];
         pix = den * s.background;
       }
-      std::vector<Eigen::Vector3d> colours(rgb ? n : 0);
+      // The fragments' colours and the blended pixel only feed the colour term's position gradient.
+      std::vector<Eigen::Vector3d> colours(rgb_pos ? n : 0);
       if (rgb) {
         for (size_t q = 0; q < n; ++q) {
-          colours[q] = fragment_colour(c, c.C, faces_, fr[q]);
-          pix += fr[q].weight * colours[q];
+          if (rgb_pos) {
+            colours[q] = fragment_colour(c, c.C, faces_, fr[q]);
+            pix += fr[q].weight * colours[q];
+          }
           den += fr[q].weight;
         }
         pix /= den;
