@@ -31,7 +31,7 @@ std::string beside(const std::string& mesh, const std::string& suffix) {
 
 std::function<int()> setup_refine(CLI::App& app) {
   struct Opts {
-    std::string views, out, init = "sphere", names, subdivide;
+    std::string views, out, init = "sphere", names, subdivide, albedo = "uniform";
     double init_keep_fraction = kRefineKeepFraction;
     RefineSettings s;
     int sphere_level = 4;
@@ -134,10 +134,18 @@ std::function<int()> setup_refine(CLI::App& app) {
   app.add_option("--gamma", s.raster.gamma, "depth softness of the colour blending")
       ->check(positive())
       ->capture_default_str();
-  app.add_flag("--lit", s.raster.lit,
-               "shade the mesh's colours as `sdfkit render` lights its views (flat Lambert + Blinn-Phong, the "
-               "camera-fixed light rig), so the colour term sees the surface's orientation; for views made by "
-               "`render` or `prep --views`");
+  CLI::Option* lit = app.add_flag(
+      "--lit", s.lit,
+      "shape from shading, for views made by `render` or `prep --views`: from the exact silhouette's first step "
+      "on, shade the colours as `render` lights its views (flat Lambert + Blinn-Phong, the camera-fixed light rig) "
+      "and let the colour error move the vertices where both silhouettes cover the pixel; recovers what no contour "
+      "shows, such as the concavities --carve fills");
+  app.add_option("--albedo", o->albedo,
+                 "with --lit: one albedo for the whole mesh (uniform: the shading cannot hide in the colours) or one "
+                 "per vertex")
+      ->check(CLI::IsMember({"uniform", "vertex"}))
+      ->capture_default_str()
+      ->needs(lit);
   app.add_option("--subdivide-at", o->subdivide,
                  "coarse to fine: after these steps (comma-separated) split every face into four and restart the "
                  "momentum (see --subdivide-lr)");
@@ -157,6 +165,7 @@ std::function<int()> setup_refine(CLI::App& app) {
     RefineSettings& s = o->s;
     s.time_limit_seconds = o->minutes * 60.0;
     s.w_adversarial = o->adversarial ? o->w_adversarial : 0.0;
+    s.uniform_albedo = o->albedo == "uniform";
     const std::string ext = extension_of(o->out);
     if (ext != "obj" && ext != "ply" && ext != "off" && ext != "stl")
       throw InvalidInput("-o " + o->out + ": give a mesh path ending in .obj, .ply, .off or .stl");
@@ -243,7 +252,9 @@ std::function<int()> setup_refine(CLI::App& app) {
       const int n = static_cast<int>(views.size()), k = std::min(o->preview, n);
       for (int i = 0; i < k; ++i) which.push_back(i * n / k);
       preview = beside(o->out, "preview.png");
-      write_image(preview, refine_preview_sheet(views, which, r.mesh, s.raster));
+      SoftRasterSettings shown = s.raster;
+      shown.lit = s.lit;  // the colours as the last steps saw them
+      write_image(preview, refine_preview_sheet(views, which, r.mesh, shown));
     }
     const RefineRow last = r.curve.empty() ? RefineRow{} : r.curve.back();
     const Json summary = {{"views", o->views},
@@ -266,7 +277,9 @@ std::function<int()> setup_refine(CLI::App& app) {
                                     {"adversarial", last.adversarial},
                                     {"critic", last.critic}}},
                           {"adversarial", s.w_adversarial > 0},
-                          {"lit", s.raster.lit},
+                          {"lit", s.lit},
+                          {"lit_from", s.lit ? Json(lit_from(s)) : Json(nullptr)},
+                          {"albedo", s.lit ? Json(o->albedo) : Json(nullptr)},
                           {"rgb_moves_vertices", colour_moves_vertices(s)},
                           {"exact_silhouette", s.exact_silhouette},
                           {"exact_after", s.exact_silhouette > 0 ? Json(s.exact_after) : Json(nullptr)},

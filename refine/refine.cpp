@@ -99,11 +99,14 @@ RefineSettings paper_loss(RefineSettings s) {
   return s;
 }
 
-bool colour_moves_vertices(const RefineSettings& s) {
-  return s.rgb_moves_vertices || s.raster.lit || s.w_adversarial > 0;
-}
+bool colour_moves_vertices(const RefineSettings& s) { return s.rgb_moves_vertices || s.w_adversarial > 0; }
 
 long exact_silhouette_from(const RefineSettings& s) { return s.exact_after >= 0 ? s.exact_after : s.iters * 3 / 4; }
+
+long lit_from(const RefineSettings& s) {
+  if (!s.lit) return -1;
+  return s.exact_silhouette > 0 ? exact_silhouette_from(s) : 0;
+}
 
 void validate_refine_settings(const RefineSettings& s) {
   require(s.iters >= 0, "refine: --iters must be >= 0");
@@ -117,6 +120,8 @@ void validate_refine_settings(const RefineSettings& s) {
   require(s.critic.size >= 16, "refine: the critic's input must be at least 16 px");
   require(s.exact_silhouette >= 0 && s.exact_silhouette <= 8, "refine: the exact silhouette's supersampling must be in 0..8");
   require(s.exact_after >= -1, "refine: the soft steps before the exact silhouette must be >= 0 (or -1: three quarters)");
+  require(!s.lit || s.w_rgb > 0, "refine: shading (lit) needs the RGB term (w_rgb > 0)");
+  require(!s.raster.lit, "refine: ask for shading with RefineSettings::lit (refine schedules it), not raster.lit");
   validate_soft_raster_settings(s.raster);
 }
 
@@ -181,8 +186,13 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
   SoftRasterSettings raster = s.raster;
   const bool adversarial = s.w_adversarial > 0;
   raster.colour = s.w_rgb > 0 || adversarial;
+  SoftRasterSettings lit_raster = raster;
+  lit_raster.lit = true;
   Faces F = start.F;
+  // The unlit rasteriser of the steps before shading starts, and the shaded one of the steps after (lit only).
   auto rasterizer = std::make_unique<SoftRasterizer>(F, raster);
+  auto shaded = s.lit ? std::make_unique<SoftRasterizer>(F, lit_raster) : nullptr;
+  const long shading_from = lit_from(s);
   MeshTopology topo = mesh_topology(F, start.V.rows());
   double lr = s.lr;
   Points V = start.V;
@@ -211,6 +221,13 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
     for (int i = 0; i < k; ++i) std::swap(order[static_cast<size_t>(i)], order[static_cast<size_t>(i) + rng.below(static_cast<uint64_t>(nviews - i))]);
 
     Points gV = Points::Zero(V.rows(), 3), gC = Points::Zero(V.rows(), 3);
+    const bool lit = shading_from >= 0 && step >= shading_from;
+    if (lit && step == shading_from && s.uniform_albedo) {
+      // One albedo from here on: the mean of the colours fitted so far (unlit, they hold the shading's mean too).
+      C.rowwise() = Eigen::RowVector3d(C.colwise().mean());
+      mC.setZero();
+    }
+    SoftRasterizer& raster_now = lit ? *shaded : *rasterizer;
     RefineRow row;
     row.step = step + 1;
     std::vector<SoftRasterCache> caches(static_cast<size_t>(k));
@@ -230,7 +247,7 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
     for (int i = 0; i < k; ++i) {
       const TargetView& tv = views[static_cast<size_t>(order[static_cast<size_t>(i)])];
       SoftRasterCache& cache = caches[static_cast<size_t>(i)];
-      const SoftImages im = rasterizer->render(V, C, tv.camera, &cache);
+      const SoftImages im = raster_now.render(V, C, tv.camera, &cache);
       rendered[static_cast<size_t>(i)] = im.rgb;
       const double npx = static_cast<double>(tv.camera.width) * tv.camera.height;
       Image da(tv.camera.width, tv.camera.height, 1), dc;
@@ -248,7 +265,12 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
         for (size_t q = 0; q < dc.data.size(); ++q) {
           const double e = double(im.rgb.data[q]) - tv.rgb.data[q];
           rgb += e * e;
-          dc.data[q] = static_cast<float>(s.w_rgb * 2 * e / (3 * npx * k));
+          // Shaded, the error reaches the positions only where both silhouettes cover the pixel fully: its
+          // contours are the silhouette term's (the soft colour image shares the soft alpha's dilation).
+          const size_t p = q / 3;
+          const bool inside = tv.alpha.data[p] >= 1.0f && alpha.data[p] >= 0.999f;
+          if (!lit || inside) dc.data[q] = static_cast<float>(s.w_rgb * 2 * e / (3 * npx * k));
+          else dc.data[q] = 0;
         }
       }
       if (adversarial && dc.empty()) dc = Image(tv.camera.width, tv.camera.height, 3);
@@ -287,10 +309,12 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
       critic->backward(fake_small, logits, dlogits, nullptr);
       critic->step();
     }
-    // Otherwise the silhouette moves the vertices and the colour term only the colours.
+    // Otherwise the silhouette moves the vertices and the colour term only the colours (shaded: also the vertices,
+    // from the pixels inside both silhouettes).
     for (int i = 0; i < k; ++i)
-      rasterizer->backward(caches[static_cast<size_t>(i)], d_alpha[static_cast<size_t>(i)], d_rgb[static_cast<size_t>(i)],
-                           gV, gC, colour_moves_vertices(s));
+      raster_now.backward(caches[static_cast<size_t>(i)], d_alpha[static_cast<size_t>(i)], d_rgb[static_cast<size_t>(i)],
+                          gV, gC, colour_moves_vertices(s) || lit);
+    if (lit && s.uniform_albedo) gC.rowwise() = Eigen::RowVector3d(gC.colwise().sum());  // the shared albedo's
     row.edge = edge_length_loss(V, topo, s.w_edge, gV);
     row.normal = normal_consistency_loss(V, F, topo, s.w_normal, gV);
     row.laplacian = laplacian_loss(V, topo, s.w_laplacian, gV);
@@ -316,6 +340,7 @@ RefineResult refine_mesh(const std::vector<TargetView>& views, const Mesh& init,
       mV = Points::Zero(V.rows(), 3);
       mC = Points::Zero(V.rows(), 3);
       rasterizer = std::make_unique<SoftRasterizer>(F, raster);
+      if (s.lit) shaded = std::make_unique<SoftRasterizer>(F, lit_raster);
       topo = mesh_topology(F, V.rows());
       lr *= s.subdivide_lr_factor;
     }

@@ -48,9 +48,22 @@ struct RefineSettings {
   /// default: the soft colour image is composited with the same dilated alpha as the soft silhouette, so on the
   /// unlit colours it pulls every contour inwards, and inside the contours it carries no shape (the carved cow /
   /// camel of docs/results/refine.md, 2000 steps: 94.5 / 93.4% IoU with it, 94.9 / 94.5 without). Forced on with
-  /// `raster.lit` (shading is how the colours see the surface's orientation) and with the critic (its verdict
-  /// reaches the mesh through the colour image).
+  /// the critic (its verdict reaches the mesh through the colour image); `lit` has its own rule (below).
   bool rgb_moves_vertices = false;
+  /// Shape from shading (`sdfkit refine --lit`, for views made by `sdfkit render` or `prep --views`): from the first
+  /// exact-silhouette step on (from the start when exact_silhouette is 0), the colours are shaded as `render` lights
+  /// its views (SoftRasterSettings::lit: flat Lambert + Blinn-Phong, the camera-fixed light rig) and the colour error
+  /// moves the vertices; it counts only at the pixels that both the target and the mesh cover fully (target alpha 1,
+  /// and the exact coverage, or the soft alpha without it, at least 0.999; rgb_moves_vertices rules the unlit steps
+  /// only): the contours stay the silhouette term's, whose dilation the soft colour image shares (the
+  /// loss curve's rgb column still averages every pixel). What it adds is the surface's orientation where no contour
+  /// passes, such as the concavities a visual hull fills (docs/results/refine.md: from the hull, the bull 94.2 ->
+  /// 97.1% IoU). The soft steps before stay unlit (their colours fitted only, as rgb_moves_vertices says).
+  /// Set this, not raster.lit (validate_refine_settings refuses raster.lit: the schedule is refine's).
+  bool lit = false;
+  /// With `lit`: one albedo for the whole mesh (set to the mean of the fitted colours when shading starts, then
+  /// fitted), so that the shading cannot be absorbed by per-vertex colours; false: one per vertex.
+  bool uniform_albedo = true;
   /// Weight of the adversarial term (0 = no critic): the generator's binary cross-entropy of the critic's verdict
   /// on the step's renders against "real" (nets/critic.h); the critic is trained on the same steps (Adam, real
   /// targets against the renders) from a seed derived from `seed`.
@@ -94,9 +107,13 @@ struct RefineSettings {
 /// best (docs/results/refine.md).
 RefineSettings paper_loss(RefineSettings s);
 
-/// Whether the colour error's gradient moves the vertices: `rgb_moves_vertices`, or forced by shading
-/// (`raster.lit`) or the critic (`w_adversarial` > 0).
+/// Whether the colour error's gradient moves the vertices on every pixel: `rgb_moves_vertices`, or forced by the
+/// critic (`w_adversarial` > 0). (With `lit`, the shaded steps also move them, at the pixels inside both
+/// silhouettes.)
 bool colour_moves_vertices(const RefineSettings& s);
+
+/// The first step with shading when `lit` (the exact silhouette's first step, or 0 without it); -1 when not lit.
+long lit_from(const RefineSettings& s);
 
 /// The first step that uses the exact silhouette: `exact_after`, or three quarters of `iters` when it is -1.
 long exact_silhouette_from(const RefineSettings& s);

@@ -119,6 +119,24 @@ TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual h
                        " --carve --carve-res 41 --iters 4 --exact-after 3 --preview 0 --json");
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(Json::parse(r.out).at("exact_after") == 3);  // given, so kept with --carve too
+  // Shading: from the exact silhouette's first step, one albedo by default; --albedo needs --lit.
+  CHECK(Json::parse(r.out).at("lit") == false);
+  CHECK(Json::parse(r.out).at("lit_from").is_null());
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --iters 4 --lit --sphere-level 1 --preview 1 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out).at("lit") == true);
+  CHECK(Json::parse(r.out).at("lit_from") == 3);
+  CHECK(Json::parse(r.out).at("albedo") == "uniform");
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --iters 4 --lit --albedo vertex --exact-silhouette 0 --sphere-level 1 --preview 0 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(Json::parse(r.out).at("lit_from") == 0);
+  CHECK(Json::parse(r.out).at("albedo") == "vertex");
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --albedo vertex");
+  CHECK(r.code != 0);
+  CHECK(r.err.find("--lit") != std::string::npos);
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --lit --w-rgb 0");
+  CHECK(r.code != 0);
+  CHECK(r.err.find("RGB") != std::string::npos);
   r = test::run_sdfkit("refine " + views + " -o " + out + " --exact-silhouette 9");
   CHECK(r.code != 0);
   CHECK(r.err.find("--exact-silhouette") != std::string::npos);

@@ -150,6 +150,77 @@ TEST_CASE("refine: by default the colour term fits the colours and leaves the po
   fs::remove_all(dir);
 }
 
+namespace {
+/// An icosphere of radius 0.8 (level 4) with, when `depth` > 0, a smooth dimple of that depth around its top
+/// (+y) pole, within 15 degrees of it: no view at elevation 20-70 degrees sees it on a contour (a view at
+/// elevation e has its contour at latitudes up to 90 - e). `cap` gets the vertices within the dimple.
+Mesh dimpled_sphere(double depth, std::vector<int>* cap = nullptr) {
+  Mesh m = make_icosphere(Vec3::Zero(), 0.8, 4);
+  for (Eigen::Index v = 0; v < m.V.rows(); ++v) {
+    const double theta = std::acos(std::clamp(m.V(v, 1) / 0.8, -1.0, 1.0)) * 180 / M_PI;  // from the pole
+    if (theta >= 15) continue;
+    m.V.row(v) *= 1 - depth / 0.8 * std::cos(M_PI / 2 * theta / 15);
+    if (cap) cap->push_back(static_cast<int>(v));
+  }
+  return m;
+}
+}  // namespace
+
+TEST_CASE("refine --lit: shading finds a dimple that no silhouette shows; the colours alone do not") {
+  const fs::path dir = test::scratch_dir("refine_lit");
+  const double depth = 0.12;
+  std::vector<int> cap;
+  const Mesh dimpled = dimpled_sphere(depth, &cap);
+  ViewSetSettings vs;
+  vs.views = 12;
+  vs.size = 64;
+  vs.elevation_min = 20;
+  vs.elevation_max = 70;
+  render_view_set(dimpled, (dir / "views").string(), vs, 7);
+  const std::vector<TargetView> views = read_target_views((dir / "views").string());
+  // From the sphere itself (the dimpled sphere's visual hull for these views), exact silhouettes from the start.
+  const Mesh start = dimpled_sphere(0);
+  RefineSettings s = short_run(300, 4, 300);
+  s.exact_after = 0;
+  const RefineResult unlit = refine_mesh(views, start, s);
+  s.lit = true;
+  REQUIRE(lit_from(s) == 0);
+  const RefineResult lit = refine_mesh(views, start, s);
+  // How far the dimple's vertices sank towards the centre, on average, against the truth.
+  const auto sink = [&](const Points& V) {
+    double d = 0;
+    for (const int v : cap) d += start.V.row(v).norm() - V.row(v).norm();
+    return d / static_cast<double>(cap.size());
+  };
+  const double want = sink(dimpled.V), got_lit = sink(lit.mesh.V), got_unlit = sink(unlit.mesh.V);
+  INFO("the dimple's ", cap.size(), " vertices sink by ", got_lit, " lit, ", got_unlit, " unlit (truth ", want, ")");
+  CHECK(got_lit > 0.7 * want);  // 0.052 of 0.053
+  CHECK(std::abs(got_unlit) < 0.15 * want);  // 0.003
+  // One albedo for the whole mesh (the default), near `render`'s grey (0.72, 0.72, 0.75).
+  for (Eigen::Index v = 1; v < lit.mesh.colors.rows(); ++v)
+    CHECK((lit.mesh.colors.row(v).array() == lit.mesh.colors.row(0).array()).all());
+  CHECK(lit.mesh.colors(0, 0) == doctest::Approx(0.72).epsilon(0.1));
+  // Per-vertex albedo: the colours differ, and the dimple is found too (0.055).
+  s.uniform_albedo = false;
+  const RefineResult per_vertex = refine_mesh(views, start, s);
+  CHECK((per_vertex.mesh.colors.array() != per_vertex.mesh.colors(0, 0)).any());
+  CHECK(sink(per_vertex.mesh.V) > 0.5 * want);
+  // Shading starts with the exact silhouette, or at once without it; refused without the colour term.
+  s.exact_after = 100;
+  CHECK(lit_from(s) == 100);
+  s.exact_silhouette = 0;
+  CHECK(lit_from(s) == 0);
+  s.lit = false;
+  CHECK(lit_from(s) == -1);
+  s.lit = true;
+  s.w_rgb = 0;
+  CHECK_THROWS_AS(validate_refine_settings(s), InvalidInput);
+  s.w_rgb = 1;
+  s.raster.lit = true;  // the schedule is refine's
+  CHECK_THROWS_AS(validate_refine_settings(s), InvalidInput);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("refine: view folders and settings are checked, naming the file") {
   const fs::path dir = test::scratch_dir("refine_bad");
   CHECK_THROWS_AS(read_target_views((dir / "none").string()), IoError);
