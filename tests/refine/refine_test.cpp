@@ -166,7 +166,7 @@ Mesh dimpled_sphere(double depth, std::vector<int>* cap = nullptr) {
 }
 }  // namespace
 
-TEST_CASE("refine --lit: shading finds a dimple that no silhouette shows; the colours alone do not") {
+TEST_CASE("refine --lit: shading finds a dimple that no silhouette shows, the colours alone do not") {
   const fs::path dir = test::scratch_dir("refine_lit");
   const double depth = 0.12;
   std::vector<int> cap;
