@@ -180,7 +180,10 @@ TEST_CASE("refine --lit: shading finds a dimple that no silhouette shows, the co
   const std::vector<TargetView> views = read_target_views((dir / "views").string());
   // From the sphere itself (the dimpled sphere's visual hull for these views), exact silhouettes from the start.
   const Mesh start = dimpled_sphere(0);
-  RefineSettings s = short_run(300, 4, 300);
+  // 300 steps; under AddressSanitizer (about 40x slower here) 20, for the memory checks: the effect is the normal
+  // build's to check.
+  const long steps = test::kAddressSanitizer ? 20 : 300;
+  RefineSettings s = short_run(steps, 4, steps);
   s.exact_after = 0;
   const RefineResult unlit = refine_mesh(views, start, s);
   s.lit = true;
@@ -194,17 +197,19 @@ TEST_CASE("refine --lit: shading finds a dimple that no silhouette shows, the co
   };
   const double want = sink(dimpled.V), got_lit = sink(lit.mesh.V), got_unlit = sink(unlit.mesh.V);
   INFO("the dimple's ", cap.size(), " vertices sink by ", got_lit, " lit, ", got_unlit, " unlit (truth ", want, ")");
-  CHECK(got_lit > 0.7 * want);  // 0.052 of 0.053
-  CHECK(std::abs(got_unlit) < 0.15 * want);  // 0.003
+  if (!test::kAddressSanitizer) {
+    CHECK(got_lit > 0.7 * want);               // 0.052 of 0.053
+    CHECK(std::abs(got_unlit) < 0.15 * want);  // 0.003
+  }
   // One albedo for the whole mesh (the default), near `render`'s grey (0.72, 0.72, 0.75).
   for (Eigen::Index v = 1; v < lit.mesh.colors.rows(); ++v)
     CHECK((lit.mesh.colors.row(v).array() == lit.mesh.colors.row(0).array()).all());
-  CHECK(lit.mesh.colors(0, 0) == doctest::Approx(0.72).epsilon(0.1));
+  if (!test::kAddressSanitizer) CHECK(lit.mesh.colors(0, 0) == doctest::Approx(0.72).epsilon(0.1));
   // Per-vertex albedo: the colours differ, and the dimple is found too (0.055).
   s.uniform_albedo = false;
   const RefineResult per_vertex = refine_mesh(views, start, s);
   CHECK((per_vertex.mesh.colors.array() != per_vertex.mesh.colors(0, 0)).any());
-  CHECK(sink(per_vertex.mesh.V) > 0.5 * want);
+  if (!test::kAddressSanitizer) CHECK(sink(per_vertex.mesh.V) > 0.5 * want);
   // Shading starts with the exact silhouette, or at once without it; refused without the colour term.
   s.exact_after = 100;
   CHECK(lit_from(s) == 100);
