@@ -253,7 +253,7 @@ std::function<int()> setup_refine(CLI::App& app) {
       for (int i = 0; i < k; ++i) which.push_back(i * n / k);
       preview = beside(o->out, "preview.png");
       SoftRasterSettings shown = s.raster;
-      shown.lit = s.lit;  // the colours as the last steps saw them
+      shown.lit = s.lit && r.steps > lit_from(s);  // the colours as the last step saw them
       write_image(preview, refine_preview_sheet(views, which, r.mesh, shown));
     }
     const RefineRow last = r.curve.empty() ? RefineRow{} : r.curve.back();
