@@ -76,6 +76,17 @@ std::function<int()> setup_refine(CLI::App& app) {
       ->check(in_range(3, 1025))
       ->capture_default_str()
       ->needs(carve_flag);
+  app.add_flag("--carve-complete", o->carve_settings.complete,
+               "with --carve: also add what the starting mesh misses: the hull points that a majority of the views "
+               "(--carve-complete-views) see on silhouette pixels the carved mesh leaves uncovered (more than a pixel in "
+               "from their edge), e.g. the base a recon chair lacks; the optimisation then refines it")
+      ->needs(carve_flag);
+  app.add_option("--carve-complete-views", o->carve_settings.complete_views,
+                 "with --carve-complete: a hull point is added when at least this many views see it on unexplained "
+                 "pixels (0: a majority, n / 2 + 1 of n)")
+      ->check(in_range(0, 64))
+      ->capture_default_str()
+      ->needs(carve_flag);
   app.add_option("--iters", s.iters,
                  "optimisation steps (0: write the starting mesh as it is, e.g. the visual hull with --carve)")
       ->check(non_negative())
@@ -204,8 +215,16 @@ std::function<int()> setup_refine(CLI::App& app) {
       init = carve_mesh(views, &init, o->carve_settings, &cr);
       std::fprintf(stderr, "refine: carved to the visual hull of %zu views at %d^3: volume %.4f -> %.4f, %ld faces (%.1f s)\n",
                    views.size(), o->carve_settings.resolution, cr.init_volume, cr.volume, cr.faces, cr.seconds);
+      if (o->carve_settings.complete)
+        std::fprintf(stderr, "refine: completed from %ld unexplained silhouette pixels: volume %.4f -> %.4f\n",
+                     cr.unexplained_pixels, cr.carved_volume, cr.volume);
       carve_json = {{"resolution", o->carve_settings.resolution}, {"init_volume", cr.init_volume},
-                    {"volume", cr.volume}, {"vertices", cr.vertices}, {"faces", cr.faces}, {"seconds", cr.seconds}};
+                    {"volume", cr.volume}, {"vertices", cr.vertices}, {"faces", cr.faces}, {"seconds", cr.seconds},
+                    {"complete", o->carve_settings.complete}};
+      if (o->carve_settings.complete) {
+        carve_json["unexplained_pixels"] = cr.unexplained_pixels;
+        carve_json["carved_volume"] = cr.carved_volume;
+      }
     }
     // From a mesh file the paper's loss measured best (docs/results/refine.md, recon rows): those defaults differ.
     if (o->init != "sphere") {

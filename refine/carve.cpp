@@ -1,6 +1,7 @@
 #include "refine/carve.h"
 
 #include "camera/camera.h"
+#include "camera/silhouette.h"
 #include "core/error.h"
 #include "core/primitives.h"
 #include "extract/adaptive.h"
@@ -11,6 +12,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <cmath>
 #include <memory>
 
@@ -22,6 +24,8 @@ void validate_carve_settings(const CarveSettings& s) {
   require(std::isfinite(s.box_size) && s.box_size > 0 && s.box_min.allFinite(), "carve: the box must be finite and non-empty");
   require(s.min_component_fraction >= 0 && s.min_component_fraction <= 1,
           "carve: min_component_fraction must be in [0, 1]");
+  require(s.complete_erode >= 0 && s.complete_erode <= 64, "carve: complete_erode must be 0..64 pixels");
+  require(s.complete_views >= 0, "carve: complete_views must be >= 0 (0: a majority of the views)");
 }
 
 double sample_alpha(const Image& alpha, double x, double y) {
@@ -53,32 +57,92 @@ Mesh carve_mesh(const std::vector<TargetView>& views, const Mesh* init, const Ca
   }
   const double threshold = settings.threshold;
   // f = max(threshold - min_v alpha_v, 0.5 - w): negative inside every silhouette and inside the starting mesh.
-  BatchField field = [&](const Points& P, Eigen::VectorXd& values) {
-    values.resize(P.rows());
-    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, P.rows(), 1024), [&](const tbb::blocked_range<Eigen::Index>& r) {
-      for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
-        const Vec3 p = P.row(i).transpose();
-        double lowest = 1.0;
-        for (const TargetView& v : views) {
-          double depth = 0;
-          const Eigen::Vector2d q = project(v.camera, p, &depth);
-          lowest = std::min(lowest, depth > 0 ? sample_alpha(v.alpha, q.x(), q.y()) : 0.0);
-          if (lowest <= 0) break;
+  // With `unexplained` (one image per view), the starting mesh's term becomes min(0.5 - w, 0.5 - U_(k)), U_(k) the
+  // k-th largest of the views' unexplained values at the point (k = complete_views, 0 = a majority): also inside
+  // where k views see the point on pixels the carved mesh leaves unexplained.
+  const int n_views = static_cast<int>(views.size());
+  const int need = settings.complete_views > 0 ? std::min(settings.complete_views, n_views) : n_views / 2 + 1;
+  const auto make_field = [&](const std::vector<Image>* unexplained) -> BatchField {
+    return [&, unexplained](const Points& P, Eigen::VectorXd& values) {
+      values.resize(P.rows());
+      Eigen::VectorXd added;
+      if (unexplained) added.resize(P.rows());
+      tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, P.rows(), 1024), [&](const tbb::blocked_range<Eigen::Index>& r) {
+        for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
+          const Vec3 p = P.row(i).transpose();
+          double lowest = 1.0;
+          std::vector<double> u;  // the views' unexplained values at p (the need-th largest decides)
+          if (unexplained) u.reserve(views.size());
+          for (size_t k = 0; k < views.size(); ++k) {
+            const TargetView& v = views[k];
+            double depth = 0;
+            const Eigen::Vector2d q = project(v.camera, p, &depth);
+            lowest = std::min(lowest, depth > 0 ? sample_alpha(v.alpha, q.x(), q.y()) : 0.0);
+            if (lowest <= 0) break;
+            if (unexplained) u.push_back(depth > 0 ? sample_alpha((*unexplained)[k], q.x(), q.y()) : 0.0);
+          }
+          values[i] = threshold - lowest;
+          if (unexplained) {
+            // Inside when at least `need` views see p on unexplained pixels: 0.5 - their need-th largest value.
+            double kth = 0.0;
+            if (u.size() == views.size()) {  // every view sampled (no early exit: p is inside the hull)
+              std::nth_element(u.begin(), u.begin() + (need - 1), u.end(), std::greater<double>());
+              kth = u[static_cast<size_t>(need - 1)];
+            }
+            added[i] = 0.5 - kth;
+          }
         }
-        values[i] = threshold - lowest;
+      });
+      if (winding) {
+        Eigen::VectorXd w = (0.5 - winding->query(P).array()).matrix();
+        if (unexplained) w = w.cwiseMin(added);
+        values = values.cwiseMax(w);
       }
-    });
-    if (winding) {
-      const Eigen::VectorXd w = winding->query(P);
-      values = values.cwiseMax((0.5 - w.array()).matrix());
-    }
+    };
   };
   ExtractSettings es;
   es.resolution = settings.resolution;
   es.box_min = settings.box_min;
   es.box_size = settings.box_size;
   es.close_boundary = true;
-  ExtractResult r = dense_extract(field, es);
+  ExtractResult r = dense_extract(make_field(nullptr), es);
+  long unexplained_pixels = 0;
+  double carved_volume = 0;
+  if (init && settings.complete) {
+    // The silhouette pixels the carved solid leaves uncovered, eroded so that a contour's sliver does not count.
+    CleanupSettings first;
+    first.min_component_fraction = settings.min_component_fraction;
+    const Mesh carved = r.mesh.F.rows() > 0 ? cleanup(r.mesh, first) : Mesh{};
+    carved_volume = carved.F.rows() > 0 ? signed_volume(carved) : 0.0;
+    std::unique_ptr<SilhouetteRenderer> sharp;
+    if (carved.F.rows() > 0) sharp = std::make_unique<SilhouetteRenderer>(carved, 3);
+    std::vector<Image> unexplained(views.size());
+    for (size_t k = 0; k < views.size(); ++k) {
+      const Image& alpha = views[k].alpha;
+      const Image covered = sharp ? sharp->render(views[k].camera) : Image(alpha.width, alpha.height, 1);
+      Image u(alpha.width, alpha.height, 1);
+      for (int y = 0; y < alpha.height; ++y)
+        for (int x = 0; x < alpha.width; ++x)
+          u.at(x, y) = alpha.at(x, y) >= threshold && covered.at(x, y) < 0.5f ? 1.0f : 0.0f;
+      for (int pass = 0; pass < settings.complete_erode; ++pass) {  // 3 x 3 erosion; outside the image counts as 0
+        Image e(u.width, u.height, 1);
+        for (int y = 0; y < u.height; ++y)
+          for (int x = 0; x < u.width; ++x) {
+            float m = 1.0f;
+            for (int dy = -1; dy <= 1 && m > 0; ++dy)
+              for (int dx = -1; dx <= 1; ++dx) {
+                const int xx = x + dx, yy = y + dy;
+                if (xx < 0 || yy < 0 || xx >= u.width || yy >= u.height || u.at(xx, yy) <= 0) { m = 0.0f; break; }
+              }
+            e.at(x, y) = m;
+          }
+        u = std::move(e);
+      }
+      for (const float v : u.data) unexplained_pixels += v > 0;
+      unexplained[k] = std::move(u);
+    }
+    if (unexplained_pixels > 0) r = dense_extract(make_field(&unexplained), es);
+  }
   if (r.mesh.F.rows() == 0)
     throw InvalidInput("carve: nothing left: no grid point lies inside every view's silhouette" +
                        std::string(init ? " and inside the starting mesh" : ""));
@@ -92,6 +156,8 @@ Mesh carve_mesh(const std::vector<TargetView>& views, const Mesh* init, const Ca
     report->faces = static_cast<long>(out.F.rows());
     report->vertices = static_cast<long>(out.V.rows());
     report->volume = signed_volume(out);
+    report->unexplained_pixels = unexplained_pixels;
+    report->carved_volume = init && settings.complete ? carved_volume : report->volume;
     report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   return out;

@@ -28,6 +28,17 @@ struct CarveSettings {
   double box_size = 2.1;
   /// Components under this fraction of the largest's faces are dropped (extract/cleanup.h); 0 keeps all.
   double min_component_fraction = kRefineKeepFraction;
+  /// With a starting mesh: also add what it misses. The pixels of each view's silhouette that the carved mesh
+  /// leaves uncovered, less complete_erode pixels from their edge (the one-pixel slivers a grid leaves along every
+  /// contour), are unexplained; every point of the hull whose projection falls on unexplained pixels in
+  /// complete_views of the views joins the solid, and the surface is extracted again. A part the starting mesh lacks (a recon chair without its
+  /// base) comes back as the hull of that part.
+  bool complete = false;
+  int complete_erode = 1;
+  /// A hull point joins when its projection is unexplained in at least this many views (more than the views:
+  /// all of them); 0 = a majority (n / 2 + 1). One view is too few: a pixel one view misses along a thin part
+  /// brings back the whole hull wedge behind it, which matches every silhouette and so stays.
+  int complete_views = 0;
 };
 
 struct CarveReport {
@@ -36,14 +47,19 @@ struct CarveReport {
   long faces = 0, vertices = 0;
   double init_volume = 0;    ///< enclosed volume of the starting mesh (core/primitives.h signed_volume; 0 without one)
   double volume = 0;         ///< enclosed volume of the carved mesh
+  /// With CarveSettings::complete: unexplained pixels over all views (after the erosion) and the volume before
+  /// they were added (volume is after).
+  long unexplained_pixels = 0;
+  double carved_volume = 0;
   double seconds = 0;
 };
 
 /// Throws InvalidInput naming the bad field.
 void validate_carve_settings(const CarveSettings& settings);
 
-/// The carved mesh (no colours). `init` may be null (the visual hull alone). Throws InvalidInput for no views, bad
-/// settings, or when nothing is left (no point inside every silhouette and the starting mesh).
+/// The carved mesh (no colours). `init` may be null (the visual hull alone; CarveSettings::complete then changes
+/// nothing). Throws InvalidInput for no views, bad settings, or when nothing is left (no point inside every
+/// silhouette and the starting mesh).
 Mesh carve_mesh(const std::vector<TargetView>& views, const Mesh* init, const CarveSettings& settings = {},
                 CarveReport* report = nullptr);
 

@@ -107,7 +107,19 @@ TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual h
   CHECK(h.at("steps") == 0);
   CHECK(h.at("faces") == h.at("carve").at("faces"));
   CHECK(h.at("carve").at("volume") == c.at("volume"));
-  // Without --carve the JSON says so; --carve-res alone is an error.
+  CHECK(h.at("carve").at("complete") == false);
+  // --carve-complete: a small sphere inside the box leaves most of every silhouette unexplained; the hull points
+  // that a majority of the views see on those pixels join it.
+  r = test::run_sdfkit("refine " + views + " -o " + (dir / "completed.obj").string() +
+                       " --sphere-radius 0.2 --carve --carve-complete --carve-res 41 --iters 0 --preview 0 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const Json k = Json::parse(r.out).at("carve");
+  CHECK(k.at("complete") == true);
+  CHECK(k.at("unexplained_pixels").get<long>() > 100);
+  CHECK(k.at("carved_volume").get<double>() < 0.05);  // the sphere of radius 0.2: 0.034
+  CHECK(k.at("volume").get<double>() > 0.5 * h.at("carve").at("volume").get<double>());
+  CHECK(k.at("volume").get<double>() <= h.at("carve").at("volume").get<double>() * 1.001);
+  // Without --carve the JSON says so; --carve-res or --carve-complete alone is an error.
   r = test::run_sdfkit("refine " + views + " -o " + out + " --iters 2 --sphere-level 1 --preview 0 --json");
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(Json::parse(r.out).at("carve").is_null());
@@ -141,6 +153,9 @@ TEST_CASE("sdfkit refine --carve: the starting sphere cut to the views' visual h
   CHECK(r.code != 0);
   CHECK(r.err.find("--exact-silhouette") != std::string::npos);
   r = test::run_sdfkit("refine " + views + " -o " + out + " --carve-res 33");
+  CHECK(r.code != 0);
+  CHECK(r.err.find("--carve") != std::string::npos);
+  r = test::run_sdfkit("refine " + views + " -o " + out + " --carve-complete");
   CHECK(r.code != 0);
   CHECK(r.err.find("--carve") != std::string::npos);
   fs::remove_all(dir);

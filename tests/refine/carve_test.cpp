@@ -1,6 +1,7 @@
 // Silhouette carving (refine/carve.h): the visual hull of a rendered box is the box (a convex shape is its own
 // hull with enough views), the hull shrinks as views are added, an intersection with a starting mesh is the
-// closed-form intersection of the two boxes, and bad input is refused.
+// closed-form intersection of the two boxes, completion restores the half a starting mesh lacks and adds nothing
+// to a whole one, and bad input is refused.
 #include "refine/carve.h"
 
 #include "camera/views.h"
@@ -94,6 +95,71 @@ TEST_CASE("carve: with a starting mesh, the intersection of the box and the mesh
   CHECK(m.V.col(0).minCoeff() > -2.1 / 96);
 }
 
+TEST_CASE("carve: completion adds back the part a starting mesh lacks, and nothing to a whole one") {
+  // The object: the box above on a leg under one corner (the part a recon mesh could miss), 16 views at elevation
+  // 0-30 degrees (DISN's renders: 25-30).
+  const Vec3 flo(0.3, -0.85, 0.25), fhi(0.45, -0.3, 0.4);
+  const Mesh body = make_box(kLo, kHi), foot = make_box(flo, fhi);
+  Mesh object;
+  object.V.resize(body.V.rows() + foot.V.rows(), 3);
+  object.V << body.V, foot.V;
+  object.F.resize(body.F.rows() + foot.F.rows(), 3);
+  object.F << body.F, (foot.F.array() + static_cast<int>(body.V.rows())).matrix();
+  const fs::path dir = test::scratch_dir("carve_complete");
+  fs::remove_all(dir);
+  ViewSetSettings vs;
+  vs.views = 16;
+  vs.size = 96;
+  vs.elevation_min = 0;
+  vs.elevation_max = 30;
+  render_view_set(object, (dir / "views").string(), vs, 3);
+  const auto views = read_target_views((dir / "views").string());
+  const double body_volume = box_volume(kLo, kHi), foot_volume = box_volume(flo, fhi);
+  // A starting mesh around the body only.
+  const Mesh start = make_box(Vec3(-0.9, -0.28, -0.9), Vec3(0.9, 0.9, 0.9));
+  CarveSettings cs;
+  cs.resolution = 97;
+  CarveReport plain, completed;
+  carve_mesh(views, &start, cs, &plain);
+  CHECK(plain.volume < 1.1 * body_volume);
+  CHECK(plain.carved_volume == plain.volume);
+  CHECK(plain.unexplained_pixels == 0);
+  cs.complete = true;
+  const Mesh m = carve_mesh(views, &start, cs, &completed);
+  // Most views see the leg on pixels the carved body leaves unexplained: the leg's hull joins the body.
+  CHECK(completed.unexplained_pixels > 100);
+  CHECK(completed.carved_volume == doctest::Approx(plain.volume).epsilon(0.02));
+  CHECK(completed.volume - completed.carved_volume > 0.3 * foot_volume);  // 48%: the body hides the rest in half the views
+  CHECK(completed.volume - completed.carved_volume < 1.5 * foot_volume);
+  CHECK(m.V.col(1).minCoeff() < flo.y() + 0.05);
+  // All 16 views required: the views in which the body hides part of the leg veto that part.
+  CarveSettings all = cs;
+  all.complete_views = 16;
+  CarveReport strict;
+  carve_mesh(views, &start, all, &strict);
+  CHECK(strict.volume < completed.volume);
+  // A starting mesh around the whole object leaves only contour slivers, which the erosion drops: nothing added.
+  const Mesh whole = make_box(Vec3(-0.9, -0.9, -0.9), Vec3(0.9, 0.9, 0.9));
+  CarveReport whole_plain, whole_completed;
+  cs.complete = false;
+  carve_mesh(views, &whole, cs, &whole_plain);
+  cs.complete = true;
+  carve_mesh(views, &whole, cs, &whole_completed);
+  CHECK(whole_completed.volume == doctest::Approx(whole_plain.volume).epsilon(0.01));
+  // A starting mesh that misses the object entirely: every silhouette pixel is unexplained, the result is the
+  // visual hull.
+  const Mesh away = make_box(Vec3(0.85, 0.85, 0.85), Vec3(1.0, 1.0, 1.0));
+  CarveReport away_rep, hull_rep;
+  carve_mesh(views, &away, cs, &away_rep);
+  CarveSettings hull_settings;
+  hull_settings.resolution = 97;
+  carve_mesh(views, nullptr, hull_settings, &hull_rep);
+  CHECK(away_rep.carved_volume == 0);
+  CHECK(away_rep.volume > 0.95 * hull_rep.volume);
+  CHECK(away_rep.volume <= hull_rep.volume * 1.001);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("carve: bad input is refused with a message") {
   const auto views = box_views(4);
   CarveSettings cs;
@@ -107,6 +173,9 @@ TEST_CASE("carve: bad input is refused with a message") {
   cs.resolution = 33;
   const Mesh empty;
   CHECK_THROWS_AS(carve_mesh(views, &empty, cs), InvalidInput);
+  cs.complete_erode = -1;
+  CHECK_THROWS_WITH_AS(carve_mesh(views, nullptr, cs), "carve: complete_erode must be 0..64 pixels", InvalidInput);
+  cs.complete_erode = 1;
   // A starting mesh far from the object: nothing is inside both.
   const Mesh away = make_box(Vec3(0.8, 0.8, 0.8), Vec3(1.0, 1.0, 1.0));
   CHECK_THROWS_WITH_AS(carve_mesh(views, &away, cs),
