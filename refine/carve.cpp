@@ -12,8 +12,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <functional>
 #include <cmath>
+#include <functional>
 #include <memory>
 
 namespace sdfkit {
@@ -44,6 +44,32 @@ double sample_alpha(const Image& alpha, double x, double y) {
   return s;
 }
 
+namespace {
+
+/// 1 where the target's silhouette (alpha >= threshold) is not covered by `covered` (coverage < 0.5), less `erode`
+/// pixels from the edge of those regions (3 x 3 erosions; outside the image counts as 0).
+Image unexplained_pixels(const Image& alpha, const Image& covered, double threshold, int erode) {
+  Image u(alpha.width, alpha.height, 1);
+  for (int y = 0; y < alpha.height; ++y)
+    for (int x = 0; x < alpha.width; ++x)
+      u.at(x, y) = alpha.at(x, y) >= threshold && covered.at(x, y) < 0.5f ? 1.0f : 0.0f;
+  const auto set = [&u](int x, int y) { return x >= 0 && y >= 0 && x < u.width && y < u.height && u.at(x, y) > 0; };
+  for (int pass = 0; pass < erode; ++pass) {
+    Image e(u.width, u.height, 1);
+    for (int y = 0; y < u.height; ++y)
+      for (int x = 0; x < u.width; ++x) {
+        bool all = true;
+        for (int dy = -1; dy <= 1 && all; ++dy)
+          for (int dx = -1; dx <= 1 && all; ++dx) all = set(x + dx, y + dy);
+        e.at(x, y) = all ? 1.0f : 0.0f;
+      }
+    u = std::move(e);
+  }
+  return u;
+}
+
+}  // namespace
+
 Mesh carve_mesh(const std::vector<TargetView>& views, const Mesh* init, const CarveSettings& settings,
                 CarveReport* report) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -68,11 +94,12 @@ Mesh carve_mesh(const std::vector<TargetView>& views, const Mesh* init, const Ca
       Eigen::VectorXd added;
       if (unexplained) added.resize(P.rows());
       tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, P.rows(), 1024), [&](const tbb::blocked_range<Eigen::Index>& r) {
+        std::vector<double> u;  // the views' unexplained values at a point (the need-th largest decides)
+        if (unexplained) u.reserve(views.size());
         for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
           const Vec3 p = P.row(i).transpose();
           double lowest = 1.0;
-          std::vector<double> u;  // the views' unexplained values at p (the need-th largest decides)
-          if (unexplained) u.reserve(views.size());
+          u.clear();
           for (size_t k = 0; k < views.size(); ++k) {
             const TargetView& v = views[k];
             double depth = 0;
@@ -105,50 +132,33 @@ Mesh carve_mesh(const std::vector<TargetView>& views, const Mesh* init, const Ca
   es.box_min = settings.box_min;
   es.box_size = settings.box_size;
   es.close_boundary = true;
+  CleanupSettings cs;
+  cs.min_component_fraction = settings.min_component_fraction;
   ExtractResult r = dense_extract(make_field(nullptr), es);
-  long unexplained_pixels = 0;
+  // marching cubes gives no colours: refine starts the carved mesh grey
+  Mesh out = r.mesh.F.rows() > 0 ? cleanup(r.mesh, cs) : Mesh{};
+  long unexplained_count = 0;
   double carved_volume = 0;
   if (init && settings.complete) {
     // The silhouette pixels the carved solid leaves uncovered, eroded so that a contour's sliver does not count.
-    CleanupSettings first;
-    first.min_component_fraction = settings.min_component_fraction;
-    const Mesh carved = r.mesh.F.rows() > 0 ? cleanup(r.mesh, first) : Mesh{};
-    carved_volume = carved.F.rows() > 0 ? signed_volume(carved) : 0.0;
+    carved_volume = out.F.rows() > 0 ? signed_volume(out) : 0.0;
     std::unique_ptr<SilhouetteRenderer> sharp;
-    if (carved.F.rows() > 0) sharp = std::make_unique<SilhouetteRenderer>(carved, 3);
+    if (out.F.rows() > 0) sharp = std::make_unique<SilhouetteRenderer>(out, 3);
     std::vector<Image> unexplained(views.size());
     for (size_t k = 0; k < views.size(); ++k) {
       const Image& alpha = views[k].alpha;
       const Image covered = sharp ? sharp->render(views[k].camera) : Image(alpha.width, alpha.height, 1);
-      Image u(alpha.width, alpha.height, 1);
-      for (int y = 0; y < alpha.height; ++y)
-        for (int x = 0; x < alpha.width; ++x)
-          u.at(x, y) = alpha.at(x, y) >= threshold && covered.at(x, y) < 0.5f ? 1.0f : 0.0f;
-      for (int pass = 0; pass < settings.complete_erode; ++pass) {  // 3 x 3 erosion; outside the image counts as 0
-        Image e(u.width, u.height, 1);
-        for (int y = 0; y < u.height; ++y)
-          for (int x = 0; x < u.width; ++x) {
-            float m = 1.0f;
-            for (int dy = -1; dy <= 1 && m > 0; ++dy)
-              for (int dx = -1; dx <= 1; ++dx) {
-                const int xx = x + dx, yy = y + dy;
-                if (xx < 0 || yy < 0 || xx >= u.width || yy >= u.height || u.at(xx, yy) <= 0) { m = 0.0f; break; }
-              }
-            e.at(x, y) = m;
-          }
-        u = std::move(e);
-      }
-      for (const float v : u.data) unexplained_pixels += v > 0;
-      unexplained[k] = std::move(u);
+      unexplained[k] = unexplained_pixels(alpha, covered, threshold, settings.complete_erode);
+      for (const float v : unexplained[k].data) unexplained_count += v > 0;
     }
-    if (unexplained_pixels > 0) r = dense_extract(make_field(&unexplained), es);
+    if (unexplained_count > 0) {
+      r = dense_extract(make_field(&unexplained), es);
+      out = r.mesh.F.rows() > 0 ? cleanup(r.mesh, cs) : Mesh{};
+    }
   }
   if (r.mesh.F.rows() == 0)
     throw InvalidInput("carve: nothing left: no grid point lies inside every view's silhouette" +
                        std::string(init ? " and inside the starting mesh" : ""));
-  CleanupSettings cs;
-  cs.min_component_fraction = settings.min_component_fraction;
-  const Mesh out = cleanup(r.mesh, cs);  // marching cubes gives no colours: refine starts the carved mesh grey
   if (report) {
     report->evaluations = r.evaluations;
     report->init_faces = init ? static_cast<long>(init->F.rows()) : 0;
@@ -156,7 +166,7 @@ Mesh carve_mesh(const std::vector<TargetView>& views, const Mesh* init, const Ca
     report->faces = static_cast<long>(out.F.rows());
     report->vertices = static_cast<long>(out.V.rows());
     report->volume = signed_volume(out);
-    report->unexplained_pixels = unexplained_pixels;
+    report->unexplained_pixels = unexplained_count;
     report->carved_volume = init && settings.complete ? carved_volume : report->volume;
     report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }

@@ -31,8 +31,8 @@ struct CarveSettings {
   /// With a starting mesh: also add what it misses. The pixels of each view's silhouette that the carved mesh
   /// leaves uncovered, less complete_erode pixels from their edge (the one-pixel slivers a grid leaves along every
   /// contour), are unexplained; every point of the hull whose projection falls on unexplained pixels in
-  /// complete_views of the views joins the solid, and the surface is extracted again. A part the starting mesh lacks (a recon chair without its
-  /// base) comes back as the hull of that part.
+  /// complete_views of the views joins the solid, and the surface is extracted again. A part the starting mesh
+  /// lacks (a recon chair without its base) comes back as the hull of what most views show of it.
   bool complete = false;
   int complete_erode = 1;
   /// A hull point joins when its projection is unexplained in at least this many views (more than the views:

@@ -1,6 +1,6 @@
 // Silhouette carving (refine/carve.h): the visual hull of a rendered box is the box (a convex shape is its own
 // hull with enough views), the hull shrinks as views are added, an intersection with a starting mesh is the
-// closed-form intersection of the two boxes, completion restores the half a starting mesh lacks and adds nothing
+// closed-form intersection of the two boxes, completion restores the leg a starting mesh lacks and adds nothing
 // to a whole one, and bad input is refused.
 #include "refine/carve.h"
 
@@ -22,17 +22,23 @@ namespace {
 
 const Vec3 kLo(-0.6, -0.3, -0.4), kHi(0.5, 0.35, 0.45);
 
-/// Views of the box above, rendered at 96 px around and above it.
-std::vector<TargetView> box_views(int count) {
-  const fs::path dir = test::scratch_dir("carve_box_" + std::to_string(count));
+/// `count` views of `mesh` at 96 px, elevation `elevation_min`..`elevation_max` degrees, in the scratch folder `name`.
+std::vector<TargetView> views_of(const Mesh& mesh, const std::string& name, int count, double elevation_min,
+                                 double elevation_max) {
+  const fs::path dir = test::scratch_dir(name);
   fs::remove_all(dir);
   ViewSetSettings vs;
   vs.views = count;
   vs.size = 96;
-  vs.elevation_min = -30;
-  vs.elevation_max = 60;
-  render_view_set(make_box(kLo, kHi), (dir / "views").string(), vs, 3);
+  vs.elevation_min = elevation_min;
+  vs.elevation_max = elevation_max;
+  render_view_set(mesh, (dir / "views").string(), vs, 3);
   return read_target_views((dir / "views").string());
+}
+
+/// Views of the box above, rendered around and above it.
+std::vector<TargetView> box_views(int count) {
+  return views_of(make_box(kLo, kHi), "carve_box_" + std::to_string(count), count, -30, 60);
 }
 
 double box_volume(const Vec3& lo, const Vec3& hi) { return (hi - lo).prod(); }
@@ -105,15 +111,7 @@ TEST_CASE("carve: completion adds back the part a starting mesh lacks, and nothi
   object.V << body.V, foot.V;
   object.F.resize(body.F.rows() + foot.F.rows(), 3);
   object.F << body.F, (foot.F.array() + static_cast<int>(body.V.rows())).matrix();
-  const fs::path dir = test::scratch_dir("carve_complete");
-  fs::remove_all(dir);
-  ViewSetSettings vs;
-  vs.views = 16;
-  vs.size = 96;
-  vs.elevation_min = 0;
-  vs.elevation_max = 30;
-  render_view_set(object, (dir / "views").string(), vs, 3);
-  const auto views = read_target_views((dir / "views").string());
+  const auto views = views_of(object, "carve_complete", 16, 0, 30);
   const double body_volume = box_volume(kLo, kHi), foot_volume = box_volume(flo, fhi);
   // A starting mesh around the body only.
   const Mesh start = make_box(Vec3(-0.9, -0.28, -0.9), Vec3(0.9, 0.9, 0.9));
@@ -157,7 +155,7 @@ TEST_CASE("carve: completion adds back the part a starting mesh lacks, and nothi
   CHECK(away_rep.carved_volume == 0);
   CHECK(away_rep.volume > 0.95 * hull_rep.volume);
   CHECK(away_rep.volume <= hull_rep.volume * 1.001);
-  fs::remove_all(dir);
+  fs::remove_all(test::scratch_dir("carve_complete"));
 }
 
 TEST_CASE("carve: bad input is refused with a message") {
