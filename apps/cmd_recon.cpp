@@ -83,7 +83,7 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
   if (dense && given("--no-follow")) throw InvalidInput("--no-follow applies to the adaptive extraction, not to --dense");
-  for (const char* f : {"--segment", "--box", "--seg-model"})
+  for (const char* f : {"--segment", "--box", "--seg-model", "--seg-zoom"})
     if (mask && given(f)) throw InvalidInput(std::string(f) + " does not apply with --mask (the mask gives the object)");
 }
 
@@ -197,6 +197,11 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "segmenter model (sdfkit train seg) of --segment net and auto (default: seg.ckpt of the model "
                  "folder; auto falls back to GrabCut when it does not exist)")
       ->capture_default_str();
+  app.add_option("--seg-zoom", o->s.framing.segmenter_zoom_rounds,
+                 "rounds of the segmenter reading the image again closer up, cut around its last answer's object "
+                 "(0 = one reading of the whole image; docs/recon.md)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 4));
   app.add_option("--box", o->box, "X,Y,W,H: the object lies inside this pixel box (GrabCut's seed; outside is background)");
   app.add_option("--framing", o->framing,
                  "auto = keep an image framed like the training renders (square, object centred at their scale), "
@@ -340,6 +345,9 @@ std::function<int()> setup_recon(CLI::App& app) {
     if (app.get_option("--seg-model")->count() > 0 &&
         (o->s.framing.segment == Segmentation::kGrabCut || o->s.framing.segment == Segmentation::kNone))
       throw InvalidInput("--seg-model applies with --segment net or auto");
+    if (app.get_option("--seg-zoom")->count() > 0 &&
+        (o->s.framing.segment == Segmentation::kGrabCut || o->s.framing.segment == Segmentation::kNone))
+      throw InvalidInput("--seg-zoom applies with --segment net or auto");
     if (o->mask.empty() && (o->s.framing.segment == Segmentation::kNet ||
                             (o->s.framing.segment == Segmentation::kAuto && !o->seg_model.empty() &&
                              (app.get_option("--seg-model")->count() > 0 || fs::exists(o->seg_model))))) {

@@ -450,6 +450,49 @@ Image plain_background_mask(const Image& rgb, const float background[3], double 
   return out;
 }
 
+Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter, const Image& rgb, int rounds,
+                        double fill, const std::string& what, int* zooms) {
+  require(static_cast<bool>(segmenter), "zoomed_foreground: no segmenter");
+  require(rounds >= 0 && fill > 0 && fill <= 1, "zoomed_foreground: rounds >= 0 and fill in (0, 1] required");
+  const int W = rgb.width, H = rgb.height;
+  const auto read = [&](const Image& im) {
+    Image p = segmenter(im);
+    if (p.width != im.width || p.height != im.height || p.channels != 1)
+      throw InvalidInput(what + ": the segmenter answered with a map of another size");
+    return p;
+  };
+  Image p = read(rgb);
+  if (zooms != nullptr) *zooms = 0;
+  for (int round = 0; round < rounds; ++round) {
+    int x0 = W, y0 = H, x1 = -1, y1 = -1;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        if (p.at(x, y) > 0.5f) {
+          x0 = std::min(x0, x);
+          y0 = std::min(y0, y);
+          x1 = std::max(x1, x);
+          y1 = std::max(y1, y);
+        }
+    if (x1 < 0) break;
+    const int side = std::max(8, static_cast<int>(std::lround(std::max(x1 - x0 + 1, y1 - y0 + 1) / fill)));
+    if (side >= std::max(W, H)) break;
+    const int ox = (x0 + x1 + 1) / 2 - side / 2, oy = (y0 + y1 + 1) / 2 - side / 2;
+    Image square(side, side, rgb.channels);
+    for (int y = 0; y < side; ++y)
+      for (int x = 0; x < side; ++x) {
+        const int sx = std::clamp(ox + x, 0, W - 1), sy = std::clamp(oy + y, 0, H - 1);
+        for (int c = 0; c < rgb.channels; ++c) square.at(x, y, c) = rgb.at(sx, sy, c);
+      }
+    const Image q = read(square);
+    Image next(W, H, 1, 0.0f);
+    for (int y = std::max(0, oy); y < std::min(H, oy + side); ++y)
+      for (int x = std::max(0, ox); x < std::min(W, ox + side); ++x) next.at(x, y) = q.at(x - ox, y - oy);
+    p = std::move(next);
+    if (zooms != nullptr) ++*zooms;
+  }
+  return p;
+}
+
 FramedInput frame_input(const Image& image, const Image* mask, const FramingSettings& st, const std::string& what) {
   if (image.empty() || image.width <= 0 || image.height <= 0 || image.channels <= 0)
     throw InvalidInput(what + ": empty image");
@@ -488,9 +531,8 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
     } else if (st.segment == Segmentation::kNet || (st.segment == Segmentation::kAuto && st.segmenter)) {
       if (!st.segmenter) throw InvalidInput(what + ": --segment net needs a segmenter model (--seg-model)");
       require(st.segmenter_high > st.segmenter_low, "framing: the segmenter's ramp needs low < high");
-      const Image p = st.segmenter(rgb);
-      if (p.width != W || p.height != H || p.channels != 1)
-        throw InvalidInput(what + ": the segmenter answered with a map of another size");
+      const Image p =
+          zoomed_foreground(st.segmenter, rgb, st.segmenter_zoom_rounds, st.segmenter_zoom_fill, what, &f.segmenter_zooms);
       f.mask = Image(W, H, 1);
       const double span = st.segmenter_high - st.segmenter_low;
       for (size_t i = 0; i < p.data.size(); ++i) {

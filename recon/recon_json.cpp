@@ -17,6 +17,7 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
   j["framing"] = {{"mask_source", fr.mask_source},
                   {"reframed", fr.reframed},
                   {"fit_rounds", r.framing_fits},
+                  {"segmenter_zooms", fr.segmenter_zooms},
                   {"crop", {{"x", fr.x0}, {"y", fr.y0}, {"side", fr.side}}},
                   {"object_box", {fr.object_box.x, fr.object_box.y, fr.object_box.w, fr.object_box.h}},
                   {"extent", fr.extent},

@@ -29,13 +29,13 @@ Image cluttered_photo() {
   return img;
 }
 
-/// A stand-in for the network: probability 0.9 inside the disc, 0.4 on a ring around it, 0.1 elsewhere.
+/// A stand-in for the network: probability 0.95 inside the disc, 0.6 on a ring around it, 0.1 elsewhere.
 Image disc_probability(const Image& rgb) {
   Image p(rgb.width, rgb.height, 1, 0.1f);
   for (int y = 0; y < rgb.height; ++y)
     for (int x = 0; x < rgb.width; ++x) {
       const double r = std::hypot(x - 100, y - 60);
-      p.at(x, y) = r < 25 ? 0.9f : r < 28 ? 0.4f : 0.1f;
+      p.at(x, y) = r < 25 ? 0.95f : r < 28 ? 0.6f : 0.1f;
     }
   return p;
 }
@@ -46,6 +46,7 @@ TEST_CASE("recon framing with the segmenter: net and auto use it, the ramp keeps
   const Image photo = cluttered_photo();
   FramingSettings st;
   st.segmenter = disc_probability;
+  st.segmenter_zoom_rounds = 0;  // these stand-ins answer in the whole image's coordinates (zoom: the next test)
   for (const Segmentation s : {Segmentation::kNet, Segmentation::kAuto}) {
     CAPTURE(segmentation_name(s));
     st.segment = s;
@@ -58,7 +59,7 @@ TEST_CASE("recon framing with the segmenter: net and auto use it, the ramp keeps
     CHECK(warned == (s == Segmentation::kAuto));
     if (s == Segmentation::kNet) {  // the network's mask as it is
       CHECK(f.mask_source == "net");
-      CHECK(f.mask.at(100 + 25, 60) == doctest::Approx(0.25));  // (0.4 - 0.3) / 0.4, next to the disc: kept
+      CHECK(f.mask.at(100 + 25, 60) == doctest::Approx(0.25));  // (0.6 - 0.5) / 0.4, next to the disc: kept
       CHECK(f.mask.at(100 + 27, 60) == 0.0f);                   // soft, but not touching the disc: a speck
       // The disc's box: 49 px around (100, 60).
       CHECK(f.object_box.x == 76);
@@ -127,6 +128,87 @@ TEST_CASE("recon framing with the segmenter: net and auto use it, the ramp keeps
   CHECK(segmentation_name(Segmentation::kNet) == "net");
 }
 
+namespace {
+
+/// A 320 x 224 grey photo with a red object: a disc of radius 20 at (120, 80) on a leg 4 px wide down to y = 140.
+Image disc_on_leg() {
+  Image img(320, 224, 3, 0.5f);
+  for (int y = 0; y < 224; ++y)
+    for (int x = 0; x < 320; ++x)
+      if ((x - 120) * (x - 120) + (y - 80) * (y - 80) < 20 * 20 || (x >= 118 && x < 122 && y >= 80 && y < 140))
+        img.at(x, y, 0) = 0.9f, img.at(x, y, 1) = img.at(x, y, 2) = 0.1f;
+  return img;
+}
+
+/// A stand-in for a network of limited resolution: the image letterboxed to 32 px, each pixel's redness, mapped back.
+Image coarse_redness(const Image& rgb) {
+  Letterbox g;
+  const Image lb = letterbox(rgb, 32, &g);
+  Image p(32, 32, 1);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x) p.at(x, y) = std::clamp((lb.at(x, y, 0) - lb.at(x, y, 1)) / 0.8f, 0.f, 1.f);
+  return unletterbox(p, g);
+}
+
+}  // namespace
+
+TEST_CASE("recon framing: the segmenter zooms in on its answer and finds what its resolution lost") {
+  const Image photo = disc_on_leg();
+  const auto leg_found = [](const Image& p) {
+    long n = 0;
+    for (int y = 105; y < 140; ++y) n += p.at(120, y) > 0.5f;  // the leg below the disc's blur
+    return n;
+  };
+  const auto iou = [&](const Image& p) {
+    long inter = 0, uni = 0;
+    for (int y = 0; y < 224; ++y)
+      for (int x = 0; x < 320; ++x) {
+        const bool a = p.at(x, y) > 0.5f, b = photo.at(x, y, 0) > 0.5f;
+        inter += a && b;
+        uni += a || b;
+      }
+    return static_cast<double>(inter) / static_cast<double>(uni);
+  };
+  // One reading of the whole image (10 px to a letterbox pixel): the disc, not the leg (0.4 letterbox pixels wide).
+  int zooms = -1;
+  const Image once = zoomed_foreground(coarse_redness, photo, 0, 0.7, "photo.png", &zooms);
+  CHECK(zooms == 0);
+  CHECK(once.data == coarse_redness(photo).data);
+  CHECK(leg_found(once) == 0);
+  // Zoomed in around the disc (a 57 px square: 1.8 px to a letterbox pixel), the leg appears; the second round's
+  // square, around the disc and that part of the leg, reaches further down it.
+  const Image zoomed = zoomed_foreground(coarse_redness, photo, 2, 0.7, "photo.png", &zooms);
+  CHECK(zooms == 2);
+  CHECK(leg_found(zoomed) >= 12);
+  CHECK(iou(zoomed) > iou(once) + 0.05);
+  CHECK(zoomed.at(5, 5) == 0.0f);  // outside the last square
+  // An object as large as the image: no smaller square to read, no zoom.
+  Image big(64, 48, 3, 0.5f);
+  for (int y = 2; y < 46; ++y)
+    for (int x = 2; x < 62; ++x) big.at(x, y, 0) = 0.9f, big.at(x, y, 1) = big.at(x, y, 2) = 0.1f;
+  zoomed_foreground(coarse_redness, big, 2, 0.7, "big.png", &zooms);
+  CHECK(zooms == 0);
+  // Nothing found: nothing to zoom in on.
+  zoomed_foreground(coarse_redness, Image(64, 48, 3, 0.5f), 2, 0.7, "grey.png", &zooms);
+  CHECK(zooms == 0);
+  // frame_input zooms by default and says so; a segmenter answering a zoomed square with another size is named.
+  FramingSettings st;
+  st.segment = Segmentation::kNet;
+  st.segmenter = coarse_redness;
+  const FramedInput f = frame_input(photo, nullptr, st, "photo.png");
+  CHECK(f.segmenter_zooms == 2);
+  CHECK(leg_found(f.mask) >= 12);
+  st.segmenter = [](const Image& rgb) {
+    return rgb.width == 320 ? coarse_redness(rgb) : Image(rgb.width + 1, rgb.height, 1, 0.9f);
+  };
+  try {
+    (void)frame_input(photo, nullptr, st, "photo.png");
+    FAIL("no error");
+  } catch (const InvalidInput& e) {
+    CHECK(std::string(e.what()).find("photo.png: the segmenter answered with a map of another size") != std::string::npos);
+  }
+}
+
 TEST_CASE("recon --segment net: the model is loaded from --seg-model, a missing one is named") {
   const fs::path dir = test::scratch_dir("recon_seg_net");
   write_image((dir / "photo.png").string(), cluttered_photo());
@@ -173,4 +255,12 @@ TEST_CASE("recon --segment net: the model is loaded from --seg-model, a missing 
                                                      (dir / "all.ckpt").string());
   CHECK(with_grabcut.code == 1);
   CHECK(with_grabcut.err.find("--seg-model applies") != std::string::npos);
+  // --seg-zoom: rounds of the segmenter, refused where no segmenter reads the image, and bounded.
+  const std::string base = "recon " + (dir / "photo.png").string() + " -o " + (dir / "out.obj").string();
+  const test::CliRun zoom_grabcut = test::run_sdfkit(base + " --segment grabcut --seg-zoom 1");
+  CHECK(zoom_grabcut.code != 0);
+  CHECK(zoom_grabcut.err.find("--seg-zoom applies with --segment net or auto") != std::string::npos);
+  const test::CliRun zoom_far = test::run_sdfkit(base + " --seg-zoom 5");
+  CHECK(zoom_far.code != 0);
+  CHECK(zoom_far.err.find("--seg-zoom") != std::string::npos);
 }
