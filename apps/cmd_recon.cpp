@@ -342,12 +342,10 @@ std::function<int()> setup_recon(CLI::App& app) {
     o->s.preview = !o->no_preview;
     o->s.refine_joint = o->refine_mode == "joint";
     o->s.framing.segment = parse_segmentation(o->segment);
-    if (app.get_option("--seg-model")->count() > 0 &&
-        (o->s.framing.segment == Segmentation::kGrabCut || o->s.framing.segment == Segmentation::kNone))
-      throw InvalidInput("--seg-model applies with --segment net or auto");
-    if (app.get_option("--seg-zoom")->count() > 0 &&
-        (o->s.framing.segment == Segmentation::kGrabCut || o->s.framing.segment == Segmentation::kNone))
-      throw InvalidInput("--seg-zoom applies with --segment net or auto");
+    for (const char* f : {"--seg-model", "--seg-zoom"})
+      if (app.get_option(f)->count() > 0 &&
+          (o->s.framing.segment == Segmentation::kGrabCut || o->s.framing.segment == Segmentation::kNone))
+        throw InvalidInput(std::string(f) + " applies with --segment net or auto");
     if (o->mask.empty() && (o->s.framing.segment == Segmentation::kNet ||
                             (o->s.framing.segment == Segmentation::kAuto && !o->seg_model.empty() &&
                              (app.get_option("--seg-model")->count() > 0 || fs::exists(o->seg_model))))) {

@@ -464,19 +464,12 @@ Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter,
   Image p = read(rgb);
   if (zooms != nullptr) *zooms = 0;
   for (int round = 0; round < rounds; ++round) {
-    int x0 = W, y0 = H, x1 = -1, y1 = -1;
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x)
-        if (p.at(x, y) > 0.5f) {
-          x0 = std::min(x0, x);
-          y0 = std::min(y0, y);
-          x1 = std::max(x1, x);
-          y1 = std::max(y1, y);
-        }
-    if (x1 < 0) break;
-    const int side = std::max(8, static_cast<int>(std::lround(std::max(x1 - x0 + 1, y1 - y0 + 1) / fill)));
+    long count = 0;
+    const PixelBox b = hard_box(p, &count);
+    if (count == 0) break;
+    const int side = std::max(8, static_cast<int>(std::lround(std::max(b.w, b.h) / fill)));
     if (side >= std::max(W, H)) break;
-    const int ox = (x0 + x1 + 1) / 2 - side / 2, oy = (y0 + y1 + 1) / 2 - side / 2;
+    const int ox = (2 * b.x + b.w) / 2 - side / 2, oy = (2 * b.y + b.h) / 2 - side / 2;
     Image square(side, side, rgb.channels);
     for (int y = 0; y < side; ++y)
       for (int x = 0; x < side; ++x) {
