@@ -57,6 +57,14 @@ std::function<int()> setup_train_seg(CLI::App& app) {
                  "probability of a procedural background (flat, gradient, noise, stripes, checker) instead of a photo")
       ->capture_default_str()
       ->check(in_range(0.0, 1.0));
+  app.add_option("--clutter", s.composite.clutter,
+                 "probability of dead-leaves clutter (shaded or photo-textured ellipses, rectangles, triangles) drawn "
+                 "over a composite's background: busy photos hold many object-like things to leave out")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
+  app.add_option("--clutter-shapes", s.composite.clutter_shapes, "most clutter shapes in one composite")
+      ->capture_default_str()
+      ->check(in_range(1, 1000));
   app.add_option("--object-range", o->object_range,
                  "MIN,MAX: the object's box longer side as a share of the canvas's longer side")
       ->capture_default_str();

@@ -45,6 +45,8 @@ Json SegCompositeSettings::to_json() const {
           {"object_jitter", object_jitter},
           {"background_jitter", background_jitter},
           {"procedural_noise", procedural_noise},
+          {"clutter", clutter},
+          {"clutter_shapes", clutter_shapes},
           {"kinds", k}};
 }
 
@@ -59,6 +61,8 @@ void SegCompositeSettings::validate() const {
           "segmenter data: jitters must be in [0, 1)");
   require(!kinds.empty(), "segmenter data: no procedural background kind");
   require(procedural_noise >= 0 && procedural_noise <= 0.5, "segmenter data: the procedural noise must be in [0, 0.5]");
+  require(clutter >= 0 && clutter <= 1, "segmenter data: the clutter probability must be in [0, 1]");
+  require(clutter_shapes >= 1 && clutter_shapes <= 1000, "segmenter data: the clutter shapes must be 1..1000");
 }
 
 // ----------------------------------------------------------------------------------------------- backgrounds
@@ -247,6 +251,62 @@ void fill_photo(Image& bg, const Image& photo, double jitter, Rng& rng) {
     }
 }
 
+/// Step 5 of the header comment: dead-leaves clutter drawn over `bg`.
+void add_clutter(Image& bg, const BackgroundSet* photos, int max_shapes, double jitter, Rng& rng) {
+  const int W = bg.width, H = bg.height;
+  const double diag = std::hypot(W, H);
+  const auto n = static_cast<int>(1 + rng.below(static_cast<uint64_t>(max_shapes)));
+  constexpr int kSub = 4;  // coverage samples per pixel side
+  for (int k = 0; k < n; ++k) {
+    const auto type = rng.below(3);  // ellipse, rectangle, triangle
+    const double half = 0.5 * diag * std::exp(rng.uniform(std::log(0.04), std::log(0.5)));
+    const double half_minor = half * std::exp(rng.uniform(std::log(0.15), 0.0));
+    const double cx = rng.uniform(-0.1 * W, 1.1 * W), cy = rng.uniform(-0.1 * H, 1.1 * H);
+    const double angle = rng.uniform(0, kPi), ca = std::cos(angle), sa = std::sin(angle);
+    const int x0 = std::max(0, static_cast<int>(std::floor(cx - half))), x1 = std::min(W - 1, static_cast<int>(cx + half));
+    const int y0 = std::max(0, static_cast<int>(std::floor(cy - half))), y1 = std::min(H - 1, static_cast<int>(cy + half));
+    const bool textured = photos != nullptr && !photos->empty() && rng.uniform() < 0.5;
+    Image texture;
+    Rgb colour{};
+    double ramp = 0, ramp_c = 1, ramp_s = 0;
+    if (textured) {
+      const size_t i = static_cast<size_t>(rng.below(photos->size()));
+      texture = Image(std::max(1, x1 - x0 + 1), std::max(1, y1 - y0 + 1), 3);
+      fill_photo(texture, photos->image(i), jitter, rng);
+    } else {
+      colour = random_colour(rng);
+      ramp = rng.uniform(-0.3, 0.3);
+      const double ra = rng.uniform(0, 2 * kPi);
+      ramp_c = std::cos(ra), ramp_s = std::sin(ra);
+    }
+    if (x0 > x1 || y0 > y1) continue;  // off the canvas (its draws are made all the same)
+    auto inside = [&](double px, double py) {
+      const double u = ((px - cx) * ca + (py - cy) * sa) / half, v = (-(px - cx) * sa + (py - cy) * ca) / half_minor;
+      if (type == 0) return u * u + v * v <= 1;
+      if (type == 1) return std::abs(u) <= 1 && std::abs(v) <= 1;
+      return v >= -1 && v <= 1 - 2 * std::abs(u);
+    };
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        int hits = 0;
+        for (int j = 0; j < kSub; ++j)
+          for (int i = 0; i < kSub; ++i) hits += inside(x + (i + 0.5) / kSub, y + (j + 0.5) / kSub) ? 1 : 0;
+        if (hits == 0) continue;
+        const float cover = static_cast<float>(hits) / (kSub * kSub);
+        for (int c = 0; c < 3; ++c) {
+          float fill;
+          if (textured) {
+            fill = texture.at(x - x0, y - y0, c);
+          } else {
+            const double t = ((x + 0.5 - cx) * ramp_c + (y + 0.5 - cy) * ramp_s) / half;  // in [-1, 1] on the shape
+            fill = clamp01(colour[static_cast<size_t>(c)] * (1 + ramp * t));
+          }
+          bg.at(x, y, c) = cover * fill + (1 - cover) * bg.at(x, y, c);
+        }
+      }
+  }
+}
+
 }  // namespace
 
 SegSample make_composite(const Image& render, const BackgroundSet* backgrounds, const SegCompositeSettings& s,
@@ -313,6 +373,11 @@ SegSample make_composite(const Image& render, const BackgroundSet* backgrounds, 
     const ProceduralBackground kind = s.kinds[static_cast<size_t>(rng.below(s.kinds.size()))];
     fill_procedural(bg, kind, near, s.procedural_noise, rng);
     out.background = procedural_name(kind);
+  }
+  // 5. Clutter.
+  if (s.clutter > 0 && rng.uniform() < s.clutter) {
+    add_clutter(bg, backgrounds, s.clutter_shapes, s.background_jitter, rng);
+    out.background += "+clutter";
   }
 
   // The object resampled onto the canvas: canvas point q -> render point m + (q - d) / k.

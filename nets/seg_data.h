@@ -16,6 +16,11 @@
 //     kinds (uniform): flat colour (white-ish, near the object's mean colour, or random: a third each), linear
 //     gradient between two colours, two-octave value noise at a random scale, stripes at a random angle and period,
 //     a rotated checkerboard; Gaussian pixel noise of U(0, procedural_noise) on top.
+//  5. clutter (drawn only when `clutter` > 0): with probability `clutter`, 1..clutter_shapes dead-leaves shapes over the
+//     background, later ones on top: ellipses, rotated rectangles and triangles, longer extent log-uniform in 4-50%
+//     of the canvas diagonal, shorter/longer 0.15-1, each filled with a random colour shaded by a linear ramp or (half
+//     of them, with background photos) a crop of a random photo; edges anti-aliased (4 x 4 coverage). Busy photos
+//     show many object-like things the segmenter must leave out; the object's label is unchanged (it is in front).
 // image = object (premultiplied, jittered) + (1 - alpha) background; label = the resampled alpha; both letterboxed.
 #pragma once
 
@@ -43,6 +48,8 @@ struct SegCompositeSettings {
   double object_jitter = 0.25;  ///< j of the object's brightness/tint
   double background_jitter = 0.25;  ///< b of a photo background's brightness/tint
   double procedural_noise = 0.03;   ///< largest standard deviation of a procedural background's pixel noise
+  double clutter = 0;           ///< probability of dead-leaves clutter over the background (step 5; 0 = never drawn)
+  int clutter_shapes = 24;      ///< most clutter shapes in one composite
   /// Procedural kinds drawn from (uniformly); all by default.
   std::vector<ProceduralBackground> kinds = {ProceduralBackground::kFlat, ProceduralBackground::kGradient,
                                              ProceduralBackground::kNoise, ProceduralBackground::kStripes,
@@ -82,7 +89,9 @@ struct SegSample {
   Image image;  ///< S x S x 3
   Image label;  ///< S x S x 1
   int canvas_x0 = 0, canvas_y0 = 0, canvas_width = 0, canvas_height = 0;
-  std::string background;  ///< "flat", "gradient", "noise", "stripes", "checker", or "photo:<index>"
+  /// "flat", "gradient", "noise", "stripes", "checker", or "photo:<index>"; "+clutter" appended when step 5 drew
+  /// clutter.
+  std::string background;
 };
 
 /// Composite `render` (RGBA; RGB or grey is taken as opaque) onto a background, drawing every choice from

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <set>
 
 using namespace sdfkit;
 namespace fs = std::filesystem;
@@ -160,6 +161,61 @@ TEST_CASE("SegData: composites are seeded, the label is the object's coverage, w
   CHECK_THROWS_AS(BackgroundSet((root / "bgs.lst").string()), IoError);
 }
 
+TEST_CASE("SegData: clutter changes the background only, and draws edges on a flat one") {
+  const fs::path root = make_seg_dataset("seg_clutter");
+  const BackgroundSet photos((root / "bg").string());
+  SegCompositeSettings flat;
+  flat.size = 64;
+  flat.procedural = 1;
+  flat.kinds = {ProceduralBackground::kFlat};
+  flat.procedural_noise = 0;
+  SegCompositeSettings busy = flat;
+  busy.clutter = 1;
+  SegCompositeSettings textured = busy;
+  textured.procedural = 0;
+  SegCompositeSettings bad = busy;
+  bad.clutter = 1.5;
+  CHECK_THROWS_AS(bad.validate(), InvalidInput);
+  bad = busy;
+  bad.clutter_shapes = 0;
+  CHECK_THROWS_AS(bad.validate(), InvalidInput);
+  int changed_images = 0;
+  for (uint64_t stream = 0; stream < 16; ++stream) {
+    const Image render = make_render(static_cast<int>(stream % 2), 0);
+    const SegSample a = make_composite(render, nullptr, flat, 3, stream);
+    const SegSample b = make_composite(render, nullptr, busy, 3, stream);
+    const SegSample c = make_composite(render, &photos, textured, 3, stream);
+    CHECK(b.background == "flat+clutter");
+    CHECK(c.background.find("+clutter") != std::string::npos);
+    CHECK(b.image.data == make_composite(render, nullptr, busy, 3, stream).image.data);  // seeded
+    // The clutter is drawn after every choice of the object: same label, same object pixels.
+    CHECK(b.label.data == a.label.data);
+    CHECK(c.label.data == a.label.data);
+    int differ = 0, object_differ = 0;
+    std::set<std::array<int, 3>> colours;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        const float l = a.label.at(x, y);
+        bool d = false;
+        std::array<int, 3> q{};
+        for (int ch = 0; ch < 3; ++ch) {
+          d = d || std::abs(a.image.at(x, y, ch) - b.image.at(x, y, ch)) > 1e-6f;
+          q[static_cast<size_t>(ch)] = static_cast<int>(std::lround(b.image.at(x, y, ch) * 255));
+        }
+        if (l >= 1.0f) object_differ += d ? 1 : 0;
+        if (l == 0.0f) {
+          differ += d ? 1 : 0;
+          colours.insert(q);
+        }
+      }
+    CHECK(object_differ == 0);
+    changed_images += differ > 0 ? 1 : 0;
+    // A flat background holds one colour; the clutter's shaded shapes many.
+    if (differ > 20) CHECK(colours.size() > 3);
+  }
+  CHECK(changed_images >= 12);  // a shape may fall behind the object or cover little; most composites change
+}
+
 TEST_CASE("SegTrain: a few dozen steps on a tiny dataset lower the loss, and validation IoU is measured") {
   const fs::path root = make_seg_dataset("seg_train_loss");
   SegTrainSettings s = tiny_run(root, "seg.ckpt");
@@ -237,9 +293,17 @@ TEST_CASE("SegTrain CLI: help, and bad inputs fail with one line naming the file
   const test::CliRun ok = test::run_sdfkit("train seg --data " + root.string() + " --backgrounds " +
                                            (root / "bg").string() + " -o " + (root / "m.ckpt").string() +
                                            " --val-split \"\" --steps 2 --batch 2 --size 32 --encoder 4,8 --decoder 8 "
-                                           "--val-items 2 --json");
+                                           "--val-items 2 --clutter 0.5 --clutter-shapes 5 --json");
   CHECK(ok.code == 0);
   const Json j = Json::parse(ok.out);
   CHECK(j.at("steps").get<long>() == 2);
   CHECK(fs::exists(root / "m.ckpt"));
+  for (const char* flag : {"--clutter 1.5", "--clutter -0.1", "--clutter-shapes 0"}) {
+    const test::CliRun r = test::run_sdfkit("train seg --data " + root.string() + " -o " + (root / "c.ckpt").string() +
+                                            " --steps 1 " + flag);
+    CHECK(r.code != 0);
+    // The parse error names the flag (CLI11 adds its "Run with --help" hint on a second line).
+    CHECK(r.err.rfind(std::string(flag).substr(0, std::string(flag).find(' ')) + ":", 0) == 0);
+    CHECK(!fs::exists(root / "c.ckpt"));
+  }
 }
