@@ -293,16 +293,16 @@ void add_clutter(Image& bg, const BackgroundSet* photos, int max_shapes, double 
           for (int i = 0; i < kSub; ++i) hits += inside(x + (i + 0.5) / kSub, y + (j + 0.5) / kSub) ? 1 : 0;
         if (hits == 0) continue;
         const float cover = static_cast<float>(hits) / (kSub * kSub);
-        for (int c = 0; c < 3; ++c) {
-          float fill;
-          if (textured) {
-            fill = texture.at(x - x0, y - y0, c);
-          } else {
-            const double t = ((x + 0.5 - cx) * ramp_c + (y + 0.5 - cy) * ramp_s) / half;  // in [-1, 1] on the shape
-            fill = clamp01(colour[static_cast<size_t>(c)] * (1 + ramp * t));
-          }
-          bg.at(x, y, c) = cover * fill + (1 - cover) * bg.at(x, y, c);
+        Rgb fill;
+        if (textured) {
+          for (int c = 0; c < 3; ++c) fill[static_cast<size_t>(c)] = texture.at(x - x0, y - y0, c);
+        } else {
+          const double t = ((x + 0.5 - cx) * ramp_c + (y + 0.5 - cy) * ramp_s) / half;  // in [-1, 1] on the shape
+          for (int c = 0; c < 3; ++c)
+            fill[static_cast<size_t>(c)] = clamp01(colour[static_cast<size_t>(c)] * (1 + ramp * t));
         }
+        for (int c = 0; c < 3; ++c)
+          bg.at(x, y, c) = cover * fill[static_cast<size_t>(c)] + (1 - cover) * bg.at(x, y, c);
       }
   }
 }
