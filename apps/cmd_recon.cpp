@@ -148,7 +148,7 @@ int fuse_views(const Reconstructor& rec, const std::vector<std::string>& inputs,
 
 std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
-    std::string input, out, model, pose_model, photo_pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto",
+    std::string input, out, model, photo_model, pose_model, photo_pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto",
                 framing = "auto", box;
     std::string pose_distances = "off", pose_tta = "mirror", pose_zoom_tta = zoom_list(kDefaultPoseZoomTta);
     ReconSettings s;
@@ -164,6 +164,7 @@ std::function<int()> setup_recon(CLI::App& app) {
   o->model = default_model_path("sdf.ckpt");
   o->pose_model = default_model_path("pose.ckpt");
   o->photo_pose_model = default_model_path("pose_photo.ckpt");
+  o->photo_model = default_model_path("sdf_photo.ckpt");
   o->seg_model = default_model_path("seg.ckpt");
   app.add_option("input", o->input,
                  "an image (PNG/JPG/EXR/TIFF/BMP, any size and aspect ratio, grey, RGB or RGBA), a folder of images, "
@@ -178,6 +179,11 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_option("--model", o->model,
                  "SDF network model (default: sdf.ckpt of the model folder: $SDFKIT_MODEL_DIR, else "
                  "<sdfkit's folder>/../share/sdfkit/models)")
+      ->capture_default_str();
+  app.add_option("--photo-model", o->photo_model,
+                 "SDF network for images recon reframes (photos, any image not framed like a render): fine-tuned on "
+                 "such crops (docs/recon.md). Default: sdf_photo.ckpt of the model folder when it exists and --model "
+                 "is not given; none = --model for every image")
       ->capture_default_str();
   app.add_option("--pose-model", o->pose_model, "camera pose network model (used with --cam est; default: pose.ckpt there)")
       ->capture_default_str();
@@ -369,6 +375,8 @@ std::function<int()> setup_recon(CLI::App& app) {
     check_flags_apply(app, estimate, o->s.refine_rounds > 0, o->s.refine.local_search, o->s.dense, !o->mask.empty());
     if (o->s.framing.reframe == Reframing::kNone && app.get_option("--framing-fit")->count() > 0)
       throw InvalidInput("--framing-fit fits the crop of a reframed image; it does not apply with --framing none");
+    if (o->s.framing.reframe == Reframing::kNone && app.get_option("--photo-model")->count() > 0)
+      throw InvalidInput("--photo-model reconstructs reframed images; it does not apply with --framing none");
     const bool sidecar = o->cam == "sidecar";
     Camera fixed_camera;
     if (!estimate && !sidecar) fixed_camera = read_camera(o->cam);
@@ -381,9 +389,16 @@ std::function<int()> setup_recon(CLI::App& app) {
                fs::exists(o->photo_pose_model)) {
       photo_pose = o->photo_pose_model;
     }
+    // The photo SDF model, by the same rule.
+    std::string photo_model;
+    if (app.get_option("--photo-model")->count() > 0) {
+      if (o->photo_model != "none") photo_model = require_model_path(o->photo_model, "--photo-model");
+    } else if (app.get_option("--model")->count() == 0 && !o->photo_model.empty() && fs::exists(o->photo_model)) {
+      photo_model = o->photo_model;
+    }
     const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
                                          estimate ? require_model_path(o->pose_model, "--pose-model") : std::string(),
-                                         photo_pose);
+                                         photo_pose, photo_model);
     if (app.get_option("--threshold")->count() > 0 && rec->sdf().config().variant != SdfVariant::kBinary)
       throw InvalidInput("--threshold applies to a binary-variant model; " + o->model + " is " +
                          to_string(rec->sdf().config().variant) + " (its surface is the field's 0 level)");

@@ -70,21 +70,40 @@ Image input_foreground(const Eigen::VectorXf& input) {
 }
 
 Reconstructor::Reconstructor(std::unique_ptr<SdfNet> sdf, std::unique_ptr<PoseNet> pose,
-                             std::unique_ptr<PoseNet> photo_pose)
-    : sdf_(std::move(sdf)), pose_(std::move(pose)), photo_pose_(std::move(photo_pose)) {
+                             std::unique_ptr<PoseNet> photo_pose, std::unique_ptr<SdfNet> photo_sdf)
+    : sdf_(std::move(sdf)), photo_sdf_(std::move(photo_sdf)), pose_(std::move(pose)),
+      photo_pose_(std::move(photo_pose)) {
   require(sdf_ != nullptr, "Reconstructor: an SDF network is required");
   require(sdf_->config().image_size == kNetImageSize, "Reconstructor: the SDF network must take 137 px inputs");
+  if (photo_sdf_) {
+    // One extraction rule for both: the same field (variant, scale) from the same input channels.
+    const SdfNetConfig &a = sdf_->config(), &b = photo_sdf_->config();
+    if (b.image_size != a.image_size || b.variant != a.variant || b.sdf_scale != a.sdf_scale || b.sdf_offset != a.sdf_offset ||
+        b.input_channels != a.input_channels)
+      throw InvalidInput("the photo SDF model is a " + to_string(b.variant) + " model of " +
+                         std::to_string(b.input_channels) + " input channels, the main one a " + to_string(a.variant) +
+                         " model of " + std::to_string(a.input_channels) +
+                         ": they must share the variant, the field's scale and the input channels");
+  }
 }
 
 Reconstructor::~Reconstructor() = default;
 
 std::unique_ptr<Reconstructor> Reconstructor::load(const std::string& sdf_path, const std::string& pose_path,
-                                                   const std::string& photo_pose_path) {
+                                                   const std::string& photo_pose_path,
+                                                   const std::string& photo_sdf_path) {
   auto sdf = load_sdf_model(sdf_path);
+  std::unique_ptr<SdfNet> photo_sdf;
+  if (!photo_sdf_path.empty()) photo_sdf = load_sdf_model(photo_sdf_path);
   std::unique_ptr<PoseNet> pose, photo_pose;
   if (!pose_path.empty()) pose = load_pose_model(pose_path);
   if (!photo_pose_path.empty()) photo_pose = load_pose_model(photo_pose_path);
-  return std::make_unique<Reconstructor>(std::move(sdf), std::move(pose), std::move(photo_pose));
+  try {
+    return std::make_unique<Reconstructor>(std::move(sdf), std::move(pose), std::move(photo_pose),
+                                           std::move(photo_sdf));
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(photo_sdf_path + ": " + e.what());
+  }
 }
 
 Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_check, double* flip_turn_deg,
@@ -229,7 +248,7 @@ int Reconstructor::fit_framing(const Image& image, FramedInput& framed, Eigen::V
       Normalization shape;
       try {
         MeshStats st;
-        shape = unit_sphere_normalization(reconstruct(input, c, settings, res, what, st));
+        shape = unit_sphere_normalization(reconstruct(input, c, settings, res, what, st, true));
       } catch (const Error&) {
         break;  // no surface (or a degenerate one) through this camera: keep the crop
       }
@@ -269,8 +288,8 @@ double Reconstructor::surface_level(const ReconSettings& settings) const {
 }
 
 Mesh Reconstructor::reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings,
-                                int resolution, const std::string& what, MeshStats& stats) const {
-  return reconstruct({{&input, camera}}, settings, resolution, what, stats);
+                                int resolution, const std::string& what, MeshStats& stats, bool reframed) const {
+  return reconstruct({{&input, camera, &sdf_for(reframed)}}, settings, resolution, what, stats);
 }
 
 Mesh Reconstructor::reconstruct(const std::vector<ViewRef>& views, const ReconSettings& settings, int resolution,
@@ -286,11 +305,11 @@ Mesh Reconstructor::reconstruct(const std::vector<ViewRef>& views, const ReconSe
     Eigen::VectorXf mask;
     if (input.size() == 4 * n) mask = input.tail(n);
     const Eigen::VectorXf net_input =
-        network_input(input.head(3 * n), mask.size() ? &mask : nullptr, sdf_->config().input_channels);
-    codes.push_back(sdf_->encode(net_input.data(), v.camera));
+        network_input(input.head(3 * n), mask.size() ? &mask : nullptr, v.net->config().input_channels);
+    codes.push_back(v.net->encode(net_input.data(), v.camera));
     if (settings.mirror_tta) {
       const Eigen::VectorXf flipped = flip_network_input(net_input, kNetImageSize);
-      mirrored.push_back(sdf_->encode(flipped.data(), mirror_camera(v.camera)));
+      mirrored.push_back(v.net->encode(flipped.data(), mirror_camera(v.camera)));
     }
   }
   stats.encode = since(t);
@@ -309,10 +328,10 @@ Mesh Reconstructor::reconstruct(const std::vector<ViewRef>& views, const ReconSe
     Eigen::VectorXd one;
     values.setZero(p.rows());
     for (size_t v = 0; v < codes.size(); ++v) {
-      sdf_->field(codes[v], p, one);
+      views[v].net->field(codes[v], p, one);
       values += one;
       if (!mirrored.empty()) {
-        sdf_->field(mirrored[v], q, one);
+        views[v].net->field(mirrored[v], q, one);
         values += one;
       }
     }
@@ -389,7 +408,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
         const MeshForCamera mesh_for = [&](const Camera& c) {
           MeshStats st;
           try {
-            Mesh m = reconstruct(full_input, c, settings, refine_res, what, st);
+            Mesh m = reconstruct(full_input, c, settings, refine_res, what, st, reframed);
             r.evaluations += st.evaluations;
             return m;
           } catch (const Error&) {  // no surface through this camera: an empty silhouette
@@ -400,7 +419,7 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
         rr = refine_camera(mesh_for, *silhouette, r.camera, settings.refine);
       } else {
         MeshStats st;
-        const Mesh m = reconstruct(full_input, r.camera, settings, refine_res, what, st);
+        const Mesh m = reconstruct(full_input, r.camera, settings, refine_res, what, st, reframed);
         r.evaluations += st.evaluations;
         rr = refine_camera(m, *silhouette, r.camera, settings.refine);
       }
@@ -411,7 +430,8 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
   }
 
   MeshStats st;
-  r.mesh = reconstruct(full_input, r.camera, settings, settings.resolution, what, st);
+  r.mesh = reconstruct(full_input, r.camera, settings, settings.resolution, what, st, reframed);
+  r.photo_model = reframed && photo_sdf_ != nullptr;
   finish_result(r, st, settings, input);
   r.timings.total = since(t_all);
   return r;
@@ -472,9 +492,11 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
     r.view_input_cameras.push_back(camera_in_input(cam, framed[i], images[i].width, images[i].height));
     r.view_estimated.push_back(cameras[i] == nullptr);
     r.view_photo_pose.push_back(cameras[i] == nullptr && framed[i].reframed && photo_pose_ != nullptr);
+    r.view_photo_model.push_back(framed[i].reframed && photo_sdf_ != nullptr);
   }
   std::vector<ViewRef> views;
-  for (size_t i = 0; i < images.size(); ++i) views.push_back({&inputs[i], r.view_cameras[i]});
+  for (size_t i = 0; i < images.size(); ++i)
+    views.push_back({&inputs[i], r.view_cameras[i], &sdf_for(framed[i].reframed)});
   MeshStats st;
   r.mesh = reconstruct(views, settings, settings.resolution, what[0], st);
   r.camera = r.initial_camera = r.view_cameras[0];
@@ -483,6 +505,7 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
   r.pose_mirror_tta = r.camera_estimated && settings.pose_mirror_tta;
   if (r.camera_estimated) r.pose_zoom_tta = settings.pose_zoom_tta;
   r.photo_pose = r.view_photo_pose[0];
+  r.photo_model = r.view_photo_model[0];
   finish_result(r, st, settings, inputs[0]);
   r.framing = std::move(framed[0]);
   r.timings.total = since(t_all);

@@ -136,6 +136,7 @@ struct ReconResult {
   bool pose_mirror_tta = false; ///< the estimated camera combines the mirrored input's reading
   std::vector<double> pose_zoom_tta;  ///< the magnifications the pose network also read (empty = none)
   bool photo_pose = false;      ///< the camera was estimated by the photo pose network (a reframed input)
+  bool photo_model = false;     ///< the photo SDF network reconstructed it (a reframed input)
   Camera initial_camera;        ///< the estimated or given camera before refinement
   std::vector<CameraRefineResult> refinements;  ///< one per refinement round (empty when off)
   long evaluations = 0;         ///< field evaluations
@@ -148,6 +149,7 @@ struct ReconResult {
   std::vector<Camera> view_input_cameras;  ///< the same as cameras of each input image
   std::vector<bool> view_estimated;        ///< whether each view's camera was estimated
   std::vector<bool> view_photo_pose;       ///< whether the photo pose network estimated it
+  std::vector<bool> view_photo_model;      ///< whether the photo SDF network read it
   ReconTimings timings;
   Image preview;                ///< RGB, 4 panels side by side (empty when settings.preview is false)
 };
@@ -165,16 +167,22 @@ class Reconstructor {
   /// `pose` may be null: then every run needs a camera. `photo_pose` (optional) estimates the camera of reframed
   /// inputs instead of `pose` (a pose network trained on images framed as recon frames a photo, with a centre head:
   /// data/models/pose_photo.md); inputs framed like the renders keep `pose`.
+  /// `photo_sdf` (optional) likewise reconstructs reframed inputs instead of `sdf` (an SDF network fine-tuned on
+  /// such crops: data/models/sdf_photo.md); it must share `sdf`'s variant, field scale and input channels
+  /// (InvalidInput otherwise).
   Reconstructor(std::unique_ptr<SdfNet> sdf, std::unique_ptr<PoseNet> pose,
-                std::unique_ptr<PoseNet> photo_pose = nullptr);
+                std::unique_ptr<PoseNet> photo_pose = nullptr, std::unique_ptr<SdfNet> photo_sdf = nullptr);
   ~Reconstructor();
-  /// Load the models (pose_path and photo_pose_path may be empty). IoError naming the file on failure.
+  /// Load the models (pose_path, photo_pose_path and photo_sdf_path may be empty). IoError naming the file on
+  /// failure; InvalidInput naming photo_sdf_path when it does not match the SDF model.
   static std::unique_ptr<Reconstructor> load(const std::string& sdf_path, const std::string& pose_path,
-                                             const std::string& photo_pose_path = "");
+                                             const std::string& photo_pose_path = "",
+                                             const std::string& photo_sdf_path = "");
 
   [[nodiscard]] const SdfNet& sdf() const { return *sdf_; }
   [[nodiscard]] bool has_pose() const { return pose_ != nullptr; }
   [[nodiscard]] bool has_photo_pose() const { return photo_pose_ != nullptr; }
+  [[nodiscard]] bool has_photo_sdf() const { return photo_sdf_ != nullptr; }
   /// The safety factor the adaptive extraction uses: settings.safety, or the model's default when it is 0.
   [[nodiscard]] double extraction_safety(const ReconSettings& settings) const;
   /// The occupancy threshold a binary-variant model is extracted at (settings.threshold; InvalidInput outside
@@ -227,9 +235,12 @@ class Reconstructor {
   struct ViewRef {
     const Eigen::VectorXf* input;  ///< network input (3 or 4 x 137 x 137)
     Camera camera;                 ///< its camera of the 137 px network image
+    const SdfNet* net;             ///< the SDF network that reads it (sdf_for)
   };
+  /// The SDF network of an input: the photo one for a reframed input when it is loaded.
+  const SdfNet& sdf_for(bool reframed) const { return reframed && photo_sdf_ ? *photo_sdf_ : *sdf_; }
   Mesh reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings, int resolution,
-                   const std::string& what, MeshStats& stats) const;
+                   const std::string& what, MeshStats& stats, bool reframed = false) const;
   /// The result's fields every reconstruction fills the same way from the final mesh's stats, and the preview
   /// (of `preview_input`, 3 x 137 x 137).
   void finish_result(ReconResult& r, const MeshStats& st, const ReconSettings& settings,
@@ -237,7 +248,7 @@ class Reconstructor {
   /// The mesh of the mean of the views' fields.
   Mesh reconstruct(const std::vector<ViewRef>& views, const ReconSettings& settings, int resolution,
                    const std::string& what, MeshStats& stats) const;
-  std::unique_ptr<SdfNet> sdf_;
+  std::unique_ptr<SdfNet> sdf_, photo_sdf_;
   std::unique_ptr<PoseNet> pose_, photo_pose_;
   mutable std::mutex pose_mutex_;  ///< serialises both pose networks
 };

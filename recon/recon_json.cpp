@@ -32,6 +32,7 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
     j["pose_zoom_tta"] = r.pose_zoom_tta;
     j["pose_model"] = r.photo_pose ? "photo" : "main";
   }
+  j["sdf_model"] = r.photo_model ? "photo" : "main";
   if (!r.refinements.empty()) {
     Json rounds = Json::array();
     for (const CameraRefineResult& rr : r.refinements)
@@ -55,6 +56,7 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
                 {"network_camera", camera_to_json(r.view_cameras[i])},
                 {"camera_source", r.view_estimated[i] ? "estimated" : "given"}};
       if (r.view_estimated[i]) v["pose_model"] = r.view_photo_pose[i] ? "photo" : "main";
+      v["sdf_model"] = r.view_photo_model[i] ? "photo" : "main";
       views.push_back(std::move(v));
     }
     j["views"] = views;

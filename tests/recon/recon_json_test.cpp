@@ -31,6 +31,7 @@ ReconResult made_result() {
   r.camera_estimated = true;
   r.pose_mirror_tta = true;
   r.photo_pose = true;
+  r.photo_model = true;
   r.framing_fits = 1;
   r.flip_turn_deg = 180;
   CameraRefineResult round;
@@ -68,12 +69,12 @@ TEST_CASE("recon_result_json: every key of the recon record, cameras that read b
   s.resolution = 65;
   const Json j = recon_result_json(r, s, {"in.png", "out/in.obj", "out/in.preview.png", "out/in.mask.png", {}}, 400, 300);
   for (const char* key : {"input", "mesh", "preview", "mask", "framing", "warnings", "camera", "network_camera",
-                          "camera_source", "flip_turn_deg", "pose_tta", "pose_zoom_tta", "pose_model", "camera_refinement",
+                          "camera_source", "flip_turn_deg", "pose_tta", "pose_zoom_tta", "pose_model", "sdf_model", "camera_refinement",
                           "evaluations",
                           "vertices", "faces", "components_removed", "resolution", "extraction", "threshold",
                           "mirror_tta", "seconds"})
     CHECK_MESSAGE(j.contains(key), key);
-  CHECK(j.size() == 23);
+  CHECK(j.size() == 24);
   CHECK(j["threshold"] == 0.4);
   CHECK(j["mirror_tta"] == true);
   CHECK(j["input"] == "in.png");
@@ -92,6 +93,7 @@ TEST_CASE("recon_result_json: every key of the recon record, cameras that read b
   CHECK(j["pose_tta"] == "mirror");
   CHECK(j["pose_zoom_tta"] == Json({0.9, 1.1}));
   CHECK(j["pose_model"] == "photo");
+  CHECK(j["sdf_model"] == "photo");
   CHECK(j["framing"]["fit_rounds"] == 1);
   CHECK(j["evaluations"] == 12345);
   CHECK(j["vertices"] == r.mesh.num_vertices());
@@ -135,5 +137,6 @@ TEST_CASE("recon_result_json: a given camera, no refinement, no preview and the 
   for (const char* key : {"preview", "mask", "flip_turn_deg", "pose_tta", "pose_zoom_tta", "pose_model",
                           "camera_refinement", "threshold"})
     CHECK_MESSAGE(!j.contains(key), key);
-  CHECK(j.size() == 15);
+  CHECK(j["sdf_model"] == "photo");
+  CHECK(j.size() == 16);
 }
