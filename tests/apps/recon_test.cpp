@@ -56,6 +56,7 @@ TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with th
   const Json j = Json::parse(r.out);
   CHECK(j["camera_source"] == "estimated");
   CHECK(j["pose_model"] == "main");  // a render framed like the training renders: not reframed, the main pose model
+  CHECK(j["sdf_model"] == "main");   // and the main SDF model
   CHECK_FALSE(j["framing"]["reframed"].get<bool>());
   CHECK(j["evaluations"].get<long>() > 0);
   CHECK(j["seconds"]["total"].get<double>() > 0);
@@ -310,6 +311,33 @@ TEST_CASE("recon of a non-square photo-like image: plain background found, refra
     REQUIRE_MESSAGE(rm.code == 0, rm.err);
     CHECK(Json::parse(rm.out)["pose_model"] == "main");
   }
+  // The photo SDF model (data/models/sdf_photo.ckpt) reconstructs a reframed image; --photo-model none the main one,
+  // and the main model named as the photo model gives the same mesh byte for byte as none does.
+  CHECK(j["sdf_model"] == "photo");
+  const std::string m_none = (dir / "comp_sn.obj").string(), m_same = (dir / "comp_ss.obj").string(),
+                    m_def = (dir / "comp_sd.obj").string();
+  const Run rs0 = run("recon " + in + " -o " + m_none + " --res 33 --json --no-preview --photo-model none");
+  const Run rs1 = run("recon " + in + " -o " + m_same + " --res 33 --json --no-preview --photo-model " + kSource +
+                      "/data/models/sdf.ckpt");
+  const Run rs2 = run("recon " + in + " -o " + m_def + " --res 33 --json --no-preview");
+  REQUIRE_MESSAGE(rs0.code == 0, rs0.err);
+  REQUIRE_MESSAGE(rs1.code == 0, rs1.err);
+  REQUIRE_MESSAGE(rs2.code == 0, rs2.err);
+  CHECK(Json::parse(rs0.out)["sdf_model"] == "main");
+  CHECK(Json::parse(rs1.out)["sdf_model"] == "photo");
+  CHECK(read_file(m_none) == read_file(m_same));
+  CHECK(read_file(m_none) != read_file(m_def));  // the shipped photo model is another network
+  // A model of another kind (the RGB-only two-stream model), a missing file, --framing none: refused, named.
+  const Run rs3 = run("recon " + in + " -o " + m_none + " --photo-model " + kSource + "/data/models/sdf_rgb.ckpt");
+  CHECK(rs3.code == 1);
+  CHECK(rs3.err.find("sdf_rgb.ckpt: the photo SDF model is") != std::string::npos);
+  const Run rs4 = run("recon " + in + " -o " + m_none + " --photo-model " + (dir / "missing.ckpt").string());
+  CHECK(rs4.code == 1);
+  CHECK(rs4.err.find("missing.ckpt") != std::string::npos);
+  const Run rs5 = run("recon " + in + " -o " + m_none + " --framing none --photo-model " + kSource +
+                      "/data/models/sdf.ckpt");
+  CHECK(rs5.code == 1);
+  CHECK(rs5.err.find("--photo-model") != std::string::npos);
   const Run rg = run("recon " + in + " -o " + (dir / "comp_g.stl").string() + " --cam " + cam_path +
                      " --photo-pose-model none");
   CHECK(rg.code == 1);
@@ -406,6 +434,7 @@ TEST_CASE("recon --fuse: views of one object with their cameras give one mesh, i
   for (const Json& v : est.at("views")) {
     CHECK(v.at("camera_source") == "estimated");
     CHECK(v.at("pose_model") == "main");
+    CHECK(v.at("sdf_model") == "main");
   }
   CHECK(j.at("views")[1].at("input").get<std::string>().find("01.png") != std::string::npos);
   CHECK(fs::exists(dir / "fused.preview.png"));
@@ -450,6 +479,8 @@ TEST_CASE("cmake --install: the installed sdfkit finds the shipped models, SDFKI
   REQUIRE(fs::exists(exe));
   CHECK(fs::is_regular_file(dir / "prefix" / "share" / "sdfkit" / "models" / "sdf.ckpt"));
   CHECK(fs::is_regular_file(dir / "prefix" / "share" / "sdfkit" / "models" / "pose.ckpt"));
+  for (const char* f : {"sdf_photo.ckpt", "pose_photo.ckpt", "seg.ckpt", "sdf_photo.md"})
+    CHECK_MESSAGE(fs::is_regular_file(dir / "prefix" / "share" / "sdfkit" / "models" / f), f);
   const std::string img = kSource + "/data/examples/chair_0004.png";
   auto run_exe = [&](const std::string& env, const std::string& args) {
     const std::string out = (dir / "out.txt").string(), err = (dir / "err.txt").string();
