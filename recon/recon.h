@@ -182,7 +182,6 @@ class Reconstructor {
   [[nodiscard]] const SdfNet& sdf() const { return *sdf_; }
   [[nodiscard]] bool has_pose() const { return pose_ != nullptr; }
   [[nodiscard]] bool has_photo_pose() const { return photo_pose_ != nullptr; }
-  [[nodiscard]] bool has_photo_sdf() const { return photo_sdf_ != nullptr; }
   /// The safety factor the adaptive extraction uses: settings.safety, or the model's default when it is 0.
   [[nodiscard]] double extraction_safety(const ReconSettings& settings) const;
   /// The occupancy threshold a binary-variant model is extracted at (settings.threshold; InvalidInput outside
