@@ -1,6 +1,9 @@
 // `sdfkit eval-pose --model M --data DIR [--split test] [--symmetry]`: d3D and d2D (DISN Table 3) of a pose model
 // on a split, optionally also modulo each shape's rotational symmetries about its vertical axis.
 #include "apps/command.h"
+#include "camera/pose_metrics.h"
+#include "camera/render.h"
+#include "camera/texture.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
@@ -10,6 +13,8 @@
 #include "sdf/symmetry.h"
 
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <cstdio>
 #include <iomanip>
 #include <iostream>
@@ -21,7 +26,8 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
   struct Opts {
     std::string model, data, split = "test";
     PoseEvalSettings e;
-    bool json = false, symmetry = false;
+    bool json = false, symmetry = false, twins = false;
+    double twin_tol = 0.01;
     std::string pose_tta = "mirror", per_image;
     double symmetry_tol = 0.01;
     double flip_check = kDefaultFlipCheck;
@@ -47,6 +53,17 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                  "(object units) of gt.obj")
       ->capture_default_str()
       ->check(positive());
+  app.add_flag("--twins", o->twins,
+               "also score modulo what each image shows: an estimate turned by 20 degrees or more about the vertical "
+               "axis is compared with the truth turned by the multiples of 5 degrees within 15 of its turn, by "
+               "rendering the shape's source mesh (norm.json's \"source\", colours kept) at both cameras; the turns "
+               "whose render differs from the true view in at most --twin-tol of the silhouettes' pixels count as "
+               "right; adds d3D-twin and d2D-twin (and twin_diff to --per-image)");
+  app.add_option("--twin-tol", o->twin_tol,
+                 "--twins: the share of the two renders' silhouette pixels that may differ (inside one silhouette "
+                 "only, or a colour channel apart by more than 0.1)")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
   app.add_option("--flip-check", o->flip_check,
                  "models with an azimuth head: turn the regressed camera to another azimuth when the head gives it "
                  "more than this many times the probability mass of the regressed one (0 = off: the 6D head alone)")
@@ -109,6 +126,33 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
         symmetries[shape.id] = degrees;
         return group;
       };
+    if (!o->twins && app.get_option("--twin-tol")->count() > 0) throw InvalidInput("--twin-tol applies with --twins");
+    // --twins: the renders of the shape being scored (items come in shape order), and each image's smallest
+    // difference from a turned render (NaN when the estimate is within kTwinMinTurn of the truth).
+    std::vector<double> twin_diff;
+    size_t twin_shape = std::numeric_limits<size_t>::max();
+    std::unique_ptr<MeshRenderer> twin_renderer;
+    if (o->twins)
+      o->e.twins = [&](size_t s, int, const Camera& truth, const Camera& predicted) {
+        std::vector<Mat3> out;
+        TwinSearch search;
+        search.tol = o->twin_tol;
+        const double turn = rotation_error_degrees(predicted.R, truth.R).second;
+        if (std::abs(turn) < search.min_turn) {  // read about right: nothing to look for
+          twin_diff.push_back(std::numeric_limits<double>::quiet_NaN());
+          return out;
+        }
+        if (s != twin_shape) {
+          twin_renderer = std::make_unique<MeshRenderer>(read_prepared_source(data.shape(s).dir, image_texture_sampler()));
+          twin_shape = s;
+        }
+        double best = 0;
+        // R_y(a) = [[cos, 0, sin], [0, 1, 0], [-sin, 0, cos]], the turn rotation_error_degrees measures.
+        for (const double a : view_twin_turns(*twin_renderer, truth, turn, search, &best))
+          out.push_back(Eigen::AngleAxisd(a * M_PI / 180.0, Vec3::UnitY()).toRotationMatrix());
+        twin_diff.push_back(best);
+        return out;
+      };
     std::map<std::string, PoseScores> per;
     std::vector<PoseItemScore> items;
     ProgressBar bar("eval-pose", 1);
@@ -122,12 +166,20 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     bar.finish();
     if (!o->per_image.empty())
       write_file_atomic(o->per_image, [&](std::ostream& f) {
-        f << "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est\n";
-        f << std::setprecision(6);
-        for (const PoseItemScore& it : items)
+        f << "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est";
+        if (o->twins) f << ",d3d_twin,d2d_twin,twin_diff";
+        f << '\n' << std::setprecision(6);
+        for (size_t i = 0; i < items.size(); ++i) {
+          const PoseItemScore& it = items[i];
           f << it.id << ',' << it.view << ',' << it.plain.d3d << ',' << it.plain.d2d << ',' << it.sym.d3d << ','
             << it.sym.d2d << ',' << it.rotation_deg << ',' << it.azimuth_deg << ',' << it.distance << ','
-            << it.distance_est << '\n';
+            << it.distance_est;
+          if (o->twins) {
+            f << ',' << it.twin.d3d << ',' << it.twin.d2d << ',';
+            if (!std::isnan(twin_diff[i])) f << twin_diff[i];
+          }
+          f << '\n';
+        }
       });
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o->json) {
@@ -136,6 +188,10 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
         if (o->symmetry) {
           j["d3d_sym"] = v.d3d_sym;
           j["d2d_sym"] = v.d2d_sym;
+        }
+        if (o->twins) {
+          j["d3d_twin"] = v.d3d_twin;
+          j["d2d_twin"] = v.d2d_twin;
         }
         return j;
       };
@@ -146,6 +202,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                 {"azimuth_bins", net->settings().azimuth_bins}, {"flip_check", o->flip_check}, {"pose_tta", o->pose_tta},
                 {"mirror_agree_deg", o->mirror_agree}, {"zoom_tta", zoom_tta},
                 {"points", o->e.points}, {"zoom", o->e.zoom}, {"reframe", o->e.reframe}, {"seconds", seconds}, {"per_category", cats}});
+      if (o->twins) j["twin_tol"] = o->twin_tol;
       if (o->symmetry) {
         j["symmetry_tol"] = o->symmetry_tol;
         j["symmetries"] = symmetries;
@@ -155,10 +212,12 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       auto row = [&](const std::string& name, const PoseScores& v) {
         std::printf("%-14s %8ld %10.4f %10.3f %9.1f%%", name.c_str(), v.items, v.d3d, v.d2d, 100.0 * v.large);
         if (o->symmetry) std::printf(" %10.4f %10.3f", v.d3d_sym, v.d2d_sym);
+        if (o->twins) std::printf(" %10.4f %10.3f", v.d3d_twin, v.d2d_twin);
         std::printf("\n");
       };
       std::printf("%-14s %8s %10s %10s %10s", "category", "items", "d3D", "d2D(px)", ">10px");
       if (o->symmetry) std::printf(" %10s %10s", "d3D-sym", "d2D-sym");
+      if (o->twins) std::printf(" %10s %10s", "d3D-twin", "d2D-twin");
       std::printf("\n");
       for (const auto& [k, v] : per) row(k, v);
       row("mean", all);

@@ -9,6 +9,8 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <optional>
 
 namespace sdfkit {
 
@@ -405,6 +407,52 @@ RenderResult MeshRenderer::render(const Camera& cam) const {
 
 RenderResult render(const Mesh& mesh, const Camera& cam, const RenderSettings& settings) {
   return MeshRenderer(mesh, settings).render(cam);
+}
+
+ViewDifference view_difference(const Image& a, const Image& b, float colour_tol) {
+  require(a.channels == 4 && b.channels == 4, "view_difference: both images must be RGBA");
+  require(a.width == b.width && a.height == b.height, "view_difference: the images differ in size");
+  require(std::isfinite(colour_tol) && colour_tol >= 0, "view_difference: colour_tol must be finite and >= 0");
+  ViewDifference d;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) {
+      const bool in_a = a.at(x, y, 3) >= 0.5f, in_b = b.at(x, y, 3) >= 0.5f;
+      if (!in_a && !in_b) continue;
+      ++d.silhouette;
+      bool differs = in_a != in_b;
+      for (int c = 0; c < 3 && !differs; ++c) differs = std::abs(a.at(x, y, c) - b.at(x, y, c)) > colour_tol;
+      d.differing += differs ? 1 : 0;
+    }
+  return d;
+}
+
+}  // namespace sdfkit
+
+namespace sdfkit {
+
+std::vector<double> view_twin_turns(const MeshRenderer& renderer, const Camera& truth, double turn_deg,
+                                    const TwinSearch& search, double* best_share) {
+  require(std::isfinite(search.step) && search.step > 0, "view_twin_turns: the step must be positive");
+  require(std::isfinite(search.window) && search.window >= 0 && std::isfinite(search.min_turn) &&
+              search.min_turn >= 0,
+          "view_twin_turns: the window and the smallest turn must be finite and >= 0");
+  require(search.tol >= 0 && search.tol <= 1, "view_twin_turns: the tolerance must be in [0, 1]");
+  require(std::isfinite(turn_deg), "view_twin_turns: the turn must be finite");
+  std::vector<double> out;
+  double best = std::numeric_limits<double>::infinity();
+  std::optional<Image> view;
+  const double k0 = std::ceil((turn_deg - search.window) / search.step);
+  for (double k = k0; k * search.step <= turn_deg + search.window; k += 1) {
+    const double a = k * search.step;
+    if (std::abs(std::remainder(a, 360.0)) < search.min_turn) continue;
+    if (!view) view = renderer.render(truth).rgba;
+    const double share =
+        view_difference(*view, renderer.render(turn_about_vertical(truth, -a)).rgba, search.colour_tol).share();
+    best = std::min(best, share);
+    if (share <= search.tol) out.push_back(a);
+  }
+  if (best_share) *best_share = best;
+  return out;
 }
 
 }  // namespace sdfkit

@@ -74,4 +74,40 @@ class MeshRenderer {
 /// One-off convenience: MeshRenderer(mesh, settings).render(cam).
 RenderResult render(const Mesh& mesh, const Camera& cam, const RenderSettings& settings = {});
 
+/// How two RGBA images of one size differ over the union of their silhouettes (alpha >= 0.5 in either): a pixel
+/// differs when it lies inside one silhouette only, or inside both with a colour channel apart by more than
+/// `colour_tol`. eval-pose --twins compares a view with the same shape turned by this to find the cameras an image
+/// cannot tell apart.
+struct ViewDifference {
+  long differing = 0;   ///< pixels that differ
+  long silhouette = 0;  ///< pixels inside either silhouette
+  /// differing / silhouette (0 when both images are empty).
+  [[nodiscard]] double share() const {
+    return silhouette > 0 ? static_cast<double>(differing) / static_cast<double>(silhouette) : 0.0;
+  }
+};
+
+/// Throws InvalidInput unless both images have 4 channels and the same size, or for a negative or non-finite
+/// colour_tol.
+ViewDifference view_difference(const Image& a, const Image& b, float colour_tol = 0.1f);
+
+/// The search of view_twin_turns.
+struct TwinSearch {
+  double step = 5;        ///< candidate turns: the multiples of step degrees ...
+  double window = 15;     ///< ... within window degrees of the given turn ...
+  double min_turn = 20;   ///< ... and at least min_turn degrees from no turn (modulo 360)
+  double tol = 0.01;      ///< largest share of the silhouettes' pixels that may differ
+  float colour_tol = 0.1f;  ///< view_difference's colour tolerance
+};
+
+/// The turns of the object about its vertical axis (+y), near `turn_deg`, that the view from `truth` cannot be
+/// told from: the candidate turns a of `search` whose render from the truth composed with R_y(a) (the camera
+/// (R_t R_y(a), t_t), i.e. turn_about_vertical(truth, -a)) differs from the render from `truth` in at most
+/// search.tol of the silhouettes' pixels. A pose estimate turned by turn_deg from the truth (rotation_error_degrees)
+/// reads such a view rightly. Returns the accepted turns in degrees, ascending; *best_share receives the smallest
+/// share of any candidate (+inf when there was none). InvalidInput for a non-positive step, negative window or
+/// min_turn, or tol outside [0, 1].
+std::vector<double> view_twin_turns(const MeshRenderer& renderer, const Camera& truth, double turn_deg,
+                                    const TwinSearch& search = {}, double* best_share = nullptr);
+
 }  // namespace sdfkit

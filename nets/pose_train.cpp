@@ -491,12 +491,18 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
   for (size_t i = 0; i < items.size(); ++i) {
     const ItemScore& it = scored[i];
     const int s = items[i].first;
+    PoseErrors twin = it.plain;
+    if (es.twins) {
+      const std::vector<Mat3> g = es.twins(static_cast<size_t>(s), items[i].second, it.truth, it.predicted);
+      if (!g.empty()) twin = pose_errors_modulo(to_double(shape_points[static_cast<size_t>(s)]), it.predicted, it.truth, g);
+    }
     if (per_item) {
       PoseItemScore p;
       p.id = data.shape(s).id;
       p.view = items[i].second;
       p.plain = it.plain;
       p.sym = it.sym;
+      p.twin = twin;
       std::tie(p.rotation_deg, p.azimuth_deg) = rotation_error_degrees(it.predicted.R, it.truth.R);
       p.distance = it.truth.t.norm();
       p.distance_est = it.predicted.t.norm();
@@ -509,6 +515,8 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
       p->d2d += it.plain.d2d;
       p->d3d_sym += it.sym.d3d;
       p->d2d_sym += it.sym.d2d;
+      p->d3d_twin += twin.d3d;
+      p->d2d_twin += twin.d2d;
       p->large += it.plain.d2d > kLargePoseError ? 1.0 : 0.0;
       ++p->items;
     }
@@ -520,6 +528,8 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
     p.d2d /= static_cast<double>(p.items);
     p.d3d_sym /= static_cast<double>(p.items);
     p.d2d_sym /= static_cast<double>(p.items);
+    p.d3d_twin /= static_cast<double>(p.items);
+    p.d2d_twin /= static_cast<double>(p.items);
     p.large /= static_cast<double>(p.items);
   };
   finish(total);

@@ -81,6 +81,9 @@ struct PoseScores {
   /// Modulo each shape's symmetries (pose_errors_modulo): only from evaluate_pose with a symmetry source, else
   /// equal to d3d / d2d.
   double d3d_sym = 0, d2d_sym = 0;
+  /// Modulo each image's twins (PoseEvalSettings::twins): only from evaluate_pose with a twin source, else equal
+  /// to d3d / d2d.
+  double d3d_twin = 0, d2d_twin = 0;
   /// Share of the items whose d2D exceeds kLargePoseError px (whole-view flips and turns; evaluate_pose only).
   double large = 0;
 };
@@ -127,12 +130,19 @@ struct PoseEvalSettings {
   /// Then frame every image as recon frames a photo (reframe_images with probability 1, the distance divided by
   /// the magnification, the principal point moved with the crop): how well the network reads recon's inputs.
   bool reframe = false;
+  /// The object-frame rotations g whose turned camera (R_t g, t_t) this image cannot be told from, given the
+  /// estimate (e.g. turned renders that look like the view: `eval-pose --twins`); when set, d3d_twin / d2d_twin
+  /// score each estimate against the closest of the truth and those twins. Called once per image, serially, in
+  /// (shape, view) order, after the network has read every image; `truth` is the camera the image was scored
+  /// against (after --zoom / --reframe).
+  std::function<std::vector<Mat3>(size_t shape, int view, const Camera& truth, const Camera& predicted)> twins;
 };
 /// One image's scores (evaluate_pose's per_item, in (shape, view) order).
 struct PoseItemScore {
   std::string id;        ///< "<category>/<shape>"
   int view = 0;
   PoseErrors plain, sym;  ///< sym = plain for a shape without symmetries
+  PoseErrors twin;        ///< = plain without a twin source or when the image has no twin
   double rotation_deg = 0;  ///< geodesic angle between the estimated and the true rotation
   /// The turn about the object's vertical axis (+y) closest to the rotation error, in (-180, 180]: R_est ~
   /// R_true R_y(azimuth_deg); a whole-view flip reads about 180.

@@ -67,6 +67,31 @@ bool shape_is_complete(const std::string& shape_dir) {
          fs::is_regular_file(files.gt);
 }
 
+Mesh read_prepared_source(const std::string& shape_dir, const TextureSampler& textures) {
+  const std::string norm_path = ShapeFiles(shape_dir).norm;
+  const Json j = read_json(norm_path);
+  if (!j.is_object() || !j.contains("source") || !j["source"].is_string() || j["source"].get<std::string>().empty())
+    throw IoError(norm_path + ": records no source mesh (\"source\")");
+  UpAxis up = UpAxis::kY;
+  if (j.contains("up")) {
+    if (!j["up"].is_string()) throw IoError(norm_path + ": \"up\" is not a string");
+    try {
+      up = parse_up_axis(j["up"].get<std::string>());
+    } catch (const InvalidInput& e) {
+      throw IoError(norm_path + ": " + e.what());
+    }
+  }
+  Normalization norm;
+  try {
+    norm = normalization_from_json(j);
+  } catch (const InvalidInput& e) {
+    std::string m = e.what();
+    if (m.rfind("norm.json: ", 0) == 0) m = m.substr(11);
+    throw IoError(norm_path + ": " + m);
+  }
+  return apply_normalization(to_y_up(read_mesh(j["source"].get<std::string>(), nullptr, textures), up), norm);
+}
+
 std::vector<std::string> prepared_differences(const std::string& shape_dir, const PrepareSettings& s) {
   Json j;
   try {

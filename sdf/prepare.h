@@ -59,6 +59,11 @@ struct ShapeFiles {
 /// True when `shape_dir` holds a complete prepared shape (norm.json is written last).
 bool shape_is_complete(const std::string& shape_dir);
 
+/// The mesh a complete prepared shape was made from, in its object frame (the views' frame): norm.json's "source"
+/// file read with `textures` (colours kept), turned to +y up by its "up" and mapped by its "norm". IoError naming
+/// norm.json when it records no source, or naming the source when it cannot be read.
+Mesh read_prepared_source(const std::string& shape_dir, const TextureSampler& textures = {});
+
 /// The settings that a complete shape's norm.json records differently from `settings` (up, grid.voxel_size,
 /// grid.band, grid.sign, grid.sealed, samples.count/offset/edges/uniform/seed, gt.setting, gt.iso), as their
 /// norm.json keys; {"norm.json"} when it cannot be read; empty when the shape is what `settings` would make.

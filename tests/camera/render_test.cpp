@@ -1,4 +1,5 @@
 #include "camera/render.h"
+#include "camera/pose_metrics.h"
 #include "core/error.h"
 #include "core/mesh_io.h"
 #include "core/primitives.h"
@@ -6,6 +7,7 @@
 #include <doctest/doctest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 
 using namespace sdfkit;
@@ -197,4 +199,76 @@ TEST_CASE("render: invalid input") {
   // An object entirely behind the camera renders empty, not garbage.
   const RenderResult r = render(make_icosphere(Vec3(0, 0, 5), 0.5, 2), look_at(0, 0, 2));
   CHECK(alpha_sum(r.rgba) == 0.0);
+}
+
+TEST_CASE("view_difference: pixels inside one silhouette only or apart in colour, over the silhouettes' union") {
+  Image a(4, 3, 4, 0.f), b(4, 3, 4, 0.f);
+  const auto set = [](Image& im, int x, int y, float grey, float alpha) {
+    for (int c = 0; c < 3; ++c) im.at(x, y, c) = grey;
+    im.at(x, y, 3) = alpha;
+  };
+  set(a, 0, 0, 0.5f, 1.f);  // inside a only: differs
+  set(a, 1, 0, 0.5f, 1.f);  // inside both, same colour
+  set(b, 1, 0, 0.5f, 1.f);
+  set(b, 2, 0, 0.5f, 1.f);  // inside b only: differs
+  set(a, 0, 1, 0.5f, 1.f);  // inside both, 0.05 apart: within the tolerance
+  set(b, 0, 1, 0.55f, 0.6f);
+  set(a, 1, 1, 0.5f, 1.f);  // inside both, 0.15 apart in green only: differs
+  set(b, 1, 1, 0.5f, 1.f);
+  b.at(1, 1, 1) = 0.65f;
+  set(a, 3, 2, 0.9f, 0.49f);  // alpha below one half: background, not counted
+  ViewDifference d = view_difference(a, b);
+  CHECK(d.silhouette == 5);
+  CHECK(d.differing == 3);
+  CHECK(d.share() == doctest::Approx(0.6));
+  d = view_difference(a, b, 0.2f);  // the green pixel is now within the tolerance
+  CHECK(d.differing == 2);
+  CHECK(view_difference(a, a).differing == 0);
+  CHECK(view_difference(a, a).silhouette == 4);
+  CHECK(view_difference(Image(4, 3, 4, 0.f), Image(4, 3, 4, 0.f)).share() == 0.0);  // both empty
+  CHECK_THROWS_AS(view_difference(a, Image(3, 4, 4, 0.f)), InvalidInput);
+  CHECK_THROWS_AS(view_difference(a, Image(4, 3, 3, 0.f)), InvalidInput);
+  CHECK_THROWS_AS(view_difference(a, b, -0.1f), InvalidInput);
+}
+
+TEST_CASE("view_twin_turns: the turns whose render looks like the view, by the pose errors' convention") {
+  const Camera truth = look_at(30, 27, 2.7);
+  // An estimate turned by 180 degrees about the vertical axis, as rotation_error_degrees reads it.
+  const Camera flipped = turn_about_vertical(truth, -180);
+  const double turn = rotation_error_degrees(flipped.R, truth.R).second;
+  CHECK(std::abs(turn) == doctest::Approx(180).epsilon(1e-9));
+  // A centred oblong box, one colour: the half turn maps it onto itself; the other candidates (165..195 by 5) do not.
+  const MeshRenderer box(colored(make_box(Vec3(-0.5, -0.3, -0.2), Vec3(0.5, 0.3, 0.2)), 0.6f, 0.5f, 0.4f));
+  double best = -1;
+  std::vector<double> twins = view_twin_turns(box, truth, 178, {}, &best);
+  CHECK(twins == std::vector<double>{180});
+  CHECK(best <= 0.01);
+  twins = view_twin_turns(box, truth, turn, {});
+  REQUIRE(twins.size() == 1);
+  CHECK(std::abs(std::remainder(twins[0], 360.0)) == doctest::Approx(180));
+  // A knob on its front tells the half turn apart, unless the tolerance allows its pixels.
+  const Mesh knobbed = concatenate(colored(make_box(Vec3(-0.5, -0.3, -0.2), Vec3(0.5, 0.3, 0.2)), 0.6f, 0.5f, 0.4f),
+                                   colored(make_box(Vec3(-0.1, -0.1, 0.2), Vec3(0.1, 0.1, 0.35)), 0.1f, 0.1f, 0.9f));
+  const MeshRenderer knob(knobbed);
+  CHECK(view_twin_turns(knob, truth, 180, {}, &best).empty());
+  CHECK(best > 0.01);
+  TwinSearch loose;
+  loose.tol = 0.5;
+  const std::vector<double> loose_twins = view_twin_turns(knob, truth, 180, loose);
+  CHECK(std::find(loose_twins.begin(), loose_twins.end(), 180.0) != loose_twins.end());
+  // Off the axis, the box has no twin.
+  const MeshRenderer off(colored(make_box(Vec3(-0.2, -0.3, -0.2), Vec3(0.6, 0.3, 0.2)), 0.6f, 0.5f, 0.4f));
+  CHECK(view_twin_turns(off, truth, 180).empty());
+  // A sphere of 360 slices looks the same turned by any whole degree: every candidate near 97 is a twin.
+  const MeshRenderer ball(colored(make_sphere(Vec3::Zero(), 0.8, 16, 360), 0.3f, 0.6f, 0.3f));
+  CHECK(view_twin_turns(ball, truth, 97) == std::vector<double>{85, 90, 95, 100, 105, 110});
+  // No candidate at least 20 degrees from no turn: nothing rendered, best share +inf.
+  CHECK(view_twin_turns(ball, truth, 0, {}, &best).empty());
+  CHECK(std::isinf(best));
+  TwinSearch bad;
+  bad.step = 0;
+  CHECK_THROWS_AS(view_twin_turns(box, truth, 180, bad), InvalidInput);
+  bad = {};
+  bad.tol = 1.5;
+  CHECK_THROWS_AS(view_twin_turns(box, truth, 180, bad), InvalidInput);
 }

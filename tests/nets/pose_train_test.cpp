@@ -404,6 +404,32 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
   CHECK(modulo["lamp"].d2d_sym == modulo["lamp"].d2d);
   CHECK(modulo["lamp"].d3d_sym == modulo["lamp"].d3d);
   CHECK(all.d2d_sym == doctest::Approx((modulo["car"].d2d_sym + modulo["lamp"].d2d_sym) / 2).epsilon(1e-12));
+  CHECK(all.d2d_twin == all.d2d);  // no twin source: the plain scores
+  CHECK(items[0].twin.d2d == items[0].plain.d2d);
+
+  // Twins per image: the source is asked once per image, in (shape, view) order, with the camera the image is
+  // scored against; the car's view is scored modulo the half turn, the lamp's without twins.
+  {
+    PoseEvalSettings tw = es;
+    tw.symmetries = nullptr;
+    std::vector<std::pair<size_t, int>> asked;
+    tw.twins = [&](size_t shape, int view, const Camera& truth, const Camera& predicted) {
+      asked.emplace_back(shape, view);
+      CHECK(truth.R.isApprox(data.camera(shape, view).R, 1e-12));
+      CHECK(predicted.t.norm() > 0);
+      return shape == 0 ? std::vector<Mat3>{half} : std::vector<Mat3>{};
+    };
+    std::map<std::string, PoseScores> by_twin;
+    std::vector<PoseItemScore> twin_items;
+    const PoseScores t = evaluate_pose(*net, data, tw, &by_twin, {}, &twin_items);
+    CHECK(asked == std::vector<std::pair<size_t, int>>{{0, 0}, {1, 0}});
+    CHECK(by_twin["car"].d2d_twin == doctest::Approx(std::min(plain["car"].d2d, twin["car"].d2d)).epsilon(1e-12));
+    CHECK(by_twin["car"].d3d_twin == doctest::Approx(std::min(plain["car"].d3d, twin["car"].d3d)).epsilon(1e-12));
+    CHECK(by_twin["lamp"].d2d_twin == by_twin["lamp"].d2d);
+    CHECK(twin_items[0].twin.d2d == doctest::Approx(by_twin["car"].d2d_twin).epsilon(1e-12));
+    CHECK(t.d2d == all_plain.d2d);
+    CHECK(t.d2d_sym == t.d2d);  // twins are not symmetries
+  }
 
   // The CLI finds the symmetries in each shape's gt.obj: a centred oblong box has the half turn, a box off the
   // axis none; its scores are those of the API with the same symmetries (one reading per view, as the API's net).
@@ -447,5 +473,49 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
   CHECK(field(rows[0], 3) == doctest::Approx(items[0].plain.d2d).epsilon(1e-5));
   CHECK(field(rows[1], 3) == doctest::Approx(items[1].plain.d2d).epsilon(1e-5));
   CHECK(field(rows[0], 5) == doctest::Approx(items[0].sym.d2d).epsilon(1e-5));
+
+  // --twins renders each shape's source mesh (norm.json's "source") where the estimate is turned by 20 degrees or
+  // more: without norm.json it names the file; with it, twin_diff is given exactly for those images and the
+  // d2D-twin is never above the d2D.
+  const std::string twins_cmd = "eval-pose --model " + s.out + " --data " + root.string() +
+                                " --split train --points 32 --pose-tta none --flip-check 0 --twins";
+  const test::CliRun tol_alone = test::run_sdfkit("eval-pose --model " + s.out + " --data " + root.string() +
+                                                  " --split train --twin-tol 0.5");
+  CHECK(tol_alone.code != 0);
+  CHECK(tol_alone.err.find("--twin-tol applies with --twins") != std::string::npos);
+  const test::CliRun no_norm = test::run_sdfkit(twins_cmd + " --json");
+  CHECK(no_norm.code == 1);
+  CHECK(no_norm.err.find("norm.json") != std::string::npos);
+  for (const std::string id : {"car/a", "lamp/b"}) {
+    const std::string src = (root / id / "source.obj").string();
+    write_mesh(src, id == "car/a" ? make_box(Vec3(-0.5, -0.3, -0.2), Vec3(0.5, 0.3, 0.2))
+                                  : make_box(Vec3(-0.1, -0.3, -0.2), Vec3(0.5, 0.3, 0.2)));
+    write_json((root / id / "norm.json").string(), Json{{"norm", {0.0, 0.0, 0.0, 1.0}}, {"source", src}});
+  }
+  const std::string twins_csv = (root / "twins.csv").string();
+  const test::CliRun tr = test::run_sdfkit(twins_cmd + " --json --per-image " + twins_csv);
+  REQUIRE_MESSAGE(tr.code == 0, tr.err);
+  const Json tj = Json::parse(tr.out);
+  CHECK(tj.at("twin_tol").get<double>() == doctest::Approx(0.01));
+  CHECK(tj.at("d2d_twin").get<double>() <= tj.at("d2d").get<double>() + 1e-12);
+  CHECK(tj.at("per_category").at("car").contains("d2d_twin"));
+  std::istringstream twin_lines(read_file(twins_csv));
+  std::getline(twin_lines, line);
+  CHECK(line == "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est,d3d_twin,d2d_twin,"
+                "twin_diff");
+  int tested = 0, rows_seen = 0;
+  while (std::getline(twin_lines, line)) {
+    ++rows_seen;
+    const bool has_diff = line.back() != ',';
+    CHECK(has_diff == (std::abs(field(line, 7)) >= 20));
+    CHECK(field(line, 11) <= field(line, 3) + 1e-9);
+    if (has_diff) {
+      ++tested;
+      CHECK(field(line, 12) >= 0);
+      CHECK(field(line, 12) <= 1);
+    }
+  }
+  CHECK(rows_seen == 4);
+  CHECK(tested > 0);  // the tiny model turns some view by 20 degrees or more: the renders were compared
   fs::remove_all(root);
 }

@@ -3,6 +3,7 @@
 #include "core/json.h"
 #include "core/mesh_io.h"
 #include "scratch.h"
+#include "sdf/normalize.h"
 #include "sdf/prepare.h"
 #include "test_meshes.h"
 
@@ -61,6 +62,52 @@ TEST_CASE("prepare --up z: a z-up file is turned to +y before normalising, and n
   const Eigen::RowVector3d extent = gt.V.colwise().maxCoeff() - gt.V.colwise().minCoeff();
   CHECK(extent.y() == doctest::Approx(4 * extent.x()).epsilon(1e-6));  // the long side is now the height
   CHECK(extent.z() == doctest::Approx(extent.x()).epsilon(1e-6));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("read_prepared_source: the source mesh in the views' frame, colours kept; errors name the file") {
+  const fs::path dir = test::scratch_dir("prepare_source");
+  fs::remove_all(dir);
+  const std::string src = (dir / "src" / "tall.ply").string();
+  Mesh tall = make_box(Vec3(0, 0, 0), Vec3(1, 1, 4));
+  tall.colors = Colors::Constant(tall.V.rows(), 3, 0.25f);
+  tall.colors.col(0).setConstant(0.75f);
+  write_mesh(src, tall);
+  PrepareSettings s;
+  s.samples.count = 500;
+  s.grid.voxel_size = 0.04;
+  s.up = UpAxis::kZ;
+  const std::string shape = (dir / "z").string();
+  prepare_shape(src, shape, s);
+  const Mesh m = read_prepared_source(shape);
+  const Normalization norm = normalization_from_json(read_json(ShapeFiles(shape).norm));
+  const Mesh expect = apply_normalization(to_y_up(read_mesh(src), UpAxis::kZ), norm);
+  REQUIRE(m.V.rows() == expect.V.rows());
+  CHECK((m.V - expect.V).cwiseAbs().maxCoeff() < 1e-12);
+  CHECK(m.V.rowwise().norm().maxCoeff() == doctest::Approx(1.0).epsilon(1e-9));  // the unit sphere
+  const Eigen::RowVector3d extent = m.V.colwise().maxCoeff() - m.V.colwise().minCoeff();
+  CHECK(extent.y() == doctest::Approx(4 * extent.x()).epsilon(1e-9));  // turned to +y up
+  REQUIRE(m.has_colors());
+  CHECK(m.colors(0, 0) == doctest::Approx(0.75f).epsilon(0.01));
+  CHECK(m.colors(0, 1) == doctest::Approx(0.25f).epsilon(0.01));
+  // No source recorded / a source that is gone: the message names norm.json / the source.
+  Json j = read_json(ShapeFiles(shape).norm);
+  j.erase("source");
+  write_json(ShapeFiles(shape).norm, j);
+  try {
+    (void)read_prepared_source(shape);
+    FAIL("no source: expected an error");
+  } catch (const IoError& e) {
+    CHECK(std::string(e.what()).find(ShapeFiles(shape).norm) != std::string::npos);
+  }
+  j["source"] = (dir / "src" / "gone.ply").string();
+  write_json(ShapeFiles(shape).norm, j);
+  try {
+    (void)read_prepared_source(shape);
+    FAIL("missing source: expected an error");
+  } catch (const Error& e) {
+    CHECK(std::string(e.what()).find("gone.ply") != std::string::npos);
+  }
   fs::remove_all(dir);
 }
 
