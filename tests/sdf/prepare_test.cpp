@@ -65,7 +65,7 @@ TEST_CASE("prepare --up z: a z-up file is turned to +y before normalising, and n
   fs::remove_all(dir);
 }
 
-TEST_CASE("read_prepared_source: the source mesh in the views' frame, colours kept; errors name the file") {
+TEST_CASE("read_prepared_source: the source mesh in the views' frame with its colours, errors name the file") {
   const fs::path dir = test::scratch_dir("prepare_source");
   fs::remove_all(dir);
   const std::string src = (dir / "src" / "tall.ply").string();
