@@ -1,5 +1,6 @@
-// `sdfkit eval-pose --model M --data DIR [--split test] [--symmetry]`: d3D and d2D (DISN Table 3) of a pose model
-// on a split, optionally also modulo each shape's rotational symmetries about its vertical axis.
+// `sdfkit eval-pose --model M --data DIR [--split test] [--symmetry] [--twins]`: d3D and d2D (DISN Table 3) of a
+// pose model on a split, optionally also modulo each shape's rotational symmetries about its vertical axis and
+// modulo the turned views that look like the image (renders of the shape's source mesh).
 #include "apps/command.h"
 #include "camera/pose_metrics.h"
 #include "camera/render.h"
@@ -12,6 +13,7 @@
 #include "sdf/prepare.h"
 #include "sdf/symmetry.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -130,6 +132,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     // --twins: the renders of the shape being scored (items come in shape order), and each image's smallest
     // difference from a turned render (NaN when the estimate is within kTwinMinTurn of the truth).
     std::vector<double> twin_diff;
+    long twinned = 0;  // images with a twin
     size_t twin_shape = std::numeric_limits<size_t>::max();
     std::unique_ptr<MeshRenderer> twin_renderer;
     if (o->twins)
@@ -151,6 +154,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
         for (const double a : view_twin_turns(*twin_renderer, truth, turn, search, &best))
           out.push_back(Eigen::AngleAxisd(a * M_PI / 180.0, Vec3::UnitY()).toRotationMatrix());
         twin_diff.push_back(best);
+        twinned += out.empty() ? 0 : 1;
         return out;
       };
     std::map<std::string, PoseScores> per;
@@ -202,7 +206,11 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                 {"azimuth_bins", net->settings().azimuth_bins}, {"flip_check", o->flip_check}, {"pose_tta", o->pose_tta},
                 {"mirror_agree_deg", o->mirror_agree}, {"zoom_tta", zoom_tta},
                 {"points", o->e.points}, {"zoom", o->e.zoom}, {"reframe", o->e.reframe}, {"seconds", seconds}, {"per_category", cats}});
-      if (o->twins) j["twin_tol"] = o->twin_tol;
+      if (o->twins) {
+        j["twin_tol"] = o->twin_tol;
+        j["turned_images"] = std::count_if(twin_diff.begin(), twin_diff.end(), [](double d) { return !std::isnan(d); });
+        j["twinned_images"] = twinned;
+      }
       if (o->symmetry) {
         j["symmetry_tol"] = o->symmetry_tol;
         j["symmetries"] = symmetries;
@@ -227,6 +235,12 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
         std::printf("%ld of %zu shapes have a quarter or half turn symmetry (tolerance %g)\n", symmetric,
                     data.size(), o->symmetry_tol);
       }
+      if (o->twins)
+        std::printf("%ld of the %ld estimates turned by %g degrees or more look like a turned view (tolerance %g)\n",
+                    twinned,
+                    static_cast<long>(std::count_if(twin_diff.begin(), twin_diff.end(),
+                                                    [](double d) { return !std::isnan(d); })),
+                    TwinSearch{}.min_turn, o->twin_tol);
     }
     return int(kOk);
   };

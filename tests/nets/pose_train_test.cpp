@@ -498,6 +498,7 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
   const Json tj = Json::parse(tr.out);
   CHECK(tj.at("twin_tol").get<double>() == doctest::Approx(0.01));
   CHECK(tj.at("d2d_twin").get<double>() <= tj.at("d2d").get<double>() + 1e-12);
+  CHECK(tj.at("twinned_images").get<long>() <= tj.at("turned_images").get<long>());
   CHECK(tj.at("per_category").at("car").contains("d2d_twin"));
   std::istringstream twin_lines(read_file(twins_csv));
   std::getline(twin_lines, line);
@@ -516,6 +517,7 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
     }
   }
   CHECK(rows_seen == 4);
-  CHECK(tested > 0);  // the tiny model turns some view by 20 degrees or more: the renders were compared
+  CHECK(tested > 0);
+  CHECK(tj.at("turned_images").get<long>() == tested);  // the tiny model turns some view by 20 degrees or more: the renders were compared
   fs::remove_all(root);
 }
