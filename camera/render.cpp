@@ -426,16 +426,13 @@ ViewDifference view_difference(const Image& a, const Image& b, float colour_tol)
   return d;
 }
 
-}  // namespace sdfkit
-
-namespace sdfkit {
-
 std::vector<double> view_twin_turns(const MeshRenderer& renderer, const Camera& truth, double turn_deg,
                                     const TwinSearch& search, double* best_share) {
   require(std::isfinite(search.step) && search.step > 0, "view_twin_turns: the step must be positive");
   require(std::isfinite(search.window) && search.window >= 0 && std::isfinite(search.min_turn) &&
               search.min_turn >= 0,
           "view_twin_turns: the window and the smallest turn must be finite and >= 0");
+  require(2 * search.window / search.step <= 3600, "view_twin_turns: more than 3600 candidate turns");
   require(search.tol >= 0 && search.tol <= 1, "view_twin_turns: the tolerance must be in [0, 1]");
   require(std::isfinite(turn_deg), "view_twin_turns: the turn must be finite");
   std::vector<double> out;

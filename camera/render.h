@@ -106,7 +106,7 @@ struct TwinSearch {
 /// search.tol of the silhouettes' pixels. A pose estimate turned by turn_deg from the truth (rotation_error_degrees)
 /// reads such a view rightly. Returns the accepted turns in degrees, ascending; *best_share receives the smallest
 /// share of any candidate (+inf when there was none). InvalidInput for a non-positive step, negative window or
-/// min_turn, or tol outside [0, 1].
+/// min_turn, more than 3600 candidates, or tol outside [0, 1].
 std::vector<double> view_twin_turns(const MeshRenderer& renderer, const Camera& truth, double turn_deg,
                                     const TwinSearch& search = {}, double* best_share = nullptr);
 

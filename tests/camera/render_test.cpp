@@ -269,6 +269,9 @@ TEST_CASE("view_twin_turns: the turns whose render looks like the view, by the p
   bad.step = 0;
   CHECK_THROWS_AS(view_twin_turns(box, truth, 180, bad), InvalidInput);
   bad = {};
+  bad.step = 1e-6;  // millions of candidates
+  CHECK_THROWS_AS(view_twin_turns(box, truth, 180, bad), InvalidInput);
+  bad = {};
   bad.tol = 1.5;
   CHECK_THROWS_AS(view_twin_turns(box, truth, 180, bad), InvalidInput);
 }
