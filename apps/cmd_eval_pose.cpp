@@ -146,7 +146,8 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
           return out;
         }
         if (s != twin_shape) {
-          twin_renderer = std::make_unique<MeshRenderer>(read_prepared_source(data.shape(s).dir, image_texture_sampler()));
+          twin_renderer =
+              std::make_unique<MeshRenderer>(read_prepared_source(data.shape(s).dir, image_texture_sampler()));
           twin_shape = s;
         }
         double best = 0;

@@ -494,7 +494,8 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
     PoseErrors twin = it.plain;
     if (es.twins) {
       const std::vector<Mat3> g = es.twins(static_cast<size_t>(s), items[i].second, it.truth, it.predicted);
-      if (!g.empty()) twin = pose_errors_modulo(to_double(shape_points[static_cast<size_t>(s)]), it.predicted, it.truth, g);
+      if (!g.empty())
+        twin = pose_errors_modulo(to_double(shape_points[static_cast<size_t>(s)]), it.predicted, it.truth, g);
     }
     if (per_item) {
       PoseItemScore p;

@@ -517,7 +517,7 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
     }
   }
   CHECK(rows_seen == 4);
-  CHECK(tested > 0);
-  CHECK(tj.at("turned_images").get<long>() == tested);  // the tiny model turns some view by 20 degrees or more: the renders were compared
+  CHECK(tested > 0);  // the tiny model turns some view by 20 degrees or more: the renders were compared
+  CHECK(tj.at("turned_images").get<long>() == tested);
   fs::remove_all(root);
 }
