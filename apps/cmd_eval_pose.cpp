@@ -13,7 +13,6 @@
 #include "sdf/prepare.h"
 #include "sdf/symmetry.h"
 
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -132,14 +131,14 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     // --twins: the renders of the shape being scored (items come in shape order), and each image's smallest
     // difference from a turned render (NaN when the estimate is within kTwinMinTurn of the truth).
     std::vector<double> twin_diff;
-    long twinned = 0;  // images with a twin
+    long turned = 0, twinned = 0;  // images looked at, images with a twin
+    TwinSearch search;
+    search.tol = o->twin_tol;
     size_t twin_shape = std::numeric_limits<size_t>::max();
     std::unique_ptr<MeshRenderer> twin_renderer;
     if (o->twins)
       o->e.twins = [&](size_t s, int, const Camera& truth, const Camera& predicted) {
         std::vector<Mat3> out;
-        TwinSearch search;
-        search.tol = o->twin_tol;
         const double turn = rotation_error_degrees(predicted.R, truth.R).second;
         if (std::abs(turn) < search.min_turn) {  // read about right: nothing to look for
           twin_diff.push_back(std::numeric_limits<double>::quiet_NaN());
@@ -155,6 +154,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
         for (const double a : view_twin_turns(*twin_renderer, truth, turn, search, &best))
           out.push_back(Eigen::AngleAxisd(a * M_PI / 180.0, Vec3::UnitY()).toRotationMatrix());
         twin_diff.push_back(best);
+        ++turned;
         twinned += out.empty() ? 0 : 1;
         return out;
       };
@@ -209,7 +209,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
                 {"points", o->e.points}, {"zoom", o->e.zoom}, {"reframe", o->e.reframe}, {"seconds", seconds}, {"per_category", cats}});
       if (o->twins) {
         j["twin_tol"] = o->twin_tol;
-        j["turned_images"] = std::count_if(twin_diff.begin(), twin_diff.end(), [](double d) { return !std::isnan(d); });
+        j["turned_images"] = turned;
         j["twinned_images"] = twinned;
       }
       if (o->symmetry) {
@@ -238,10 +238,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       }
       if (o->twins)
         std::printf("%ld of the %ld estimates turned by %g degrees or more look like a turned view (tolerance %g)\n",
-                    twinned,
-                    static_cast<long>(std::count_if(twin_diff.begin(), twin_diff.end(),
-                                                    [](double d) { return !std::isnan(d); })),
-                    TwinSearch{}.min_turn, o->twin_tol);
+                    twinned, turned, search.min_turn, o->twin_tol);
     }
     return int(kOk);
   };
