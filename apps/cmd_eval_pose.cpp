@@ -119,7 +119,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       o->e.symmetries = [&](const ShapeEntry& shape) {
         std::vector<Mat3> group;
         Json degrees = Json::array();
-        for (const RotationSymmetry& r : vertical_symmetries(read_mesh(ShapeFiles(shape.dir).gt), o->symmetry_tol))
+        for (const RotationSymmetry& r : prepared_shape_symmetries(shape.dir, o->symmetry_tol))
           if (r.symmetric) {
             group.push_back(r.R);
             degrees.push_back(r.degrees);
@@ -136,7 +136,9 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     search.tol = o->twin_tol;
     size_t twin_shape = std::numeric_limits<size_t>::max();
     std::unique_ptr<MeshRenderer> twin_renderer;
-    if (o->twins)
+    if (o->twins) {
+      // Every shape's source mesh must be there: say so now, not after the network has read every image.
+      for (const ShapeEntry& shape : data.shapes()) (void)prepared_source(shape.dir);
       o->e.twins = [&](size_t s, int, const Camera& truth, const Camera& predicted) {
         std::vector<Mat3> out;
         const double turn = rotation_error_degrees(predicted.R, truth.R).second;
@@ -158,6 +160,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
         twinned += out.empty() ? 0 : 1;
         return out;
       };
+    }
     std::map<std::string, PoseScores> per;
     std::vector<PoseItemScore> items;
     ProgressBar bar("eval-pose", 1);

@@ -140,7 +140,7 @@ std::function<int()> setup_train_pose(CLI::App& app) {
       s.symmetries = [tol](const ShapeEntry& shape) {
         const std::string gt = ShapeFiles(shape.dir).gt;
         try {
-          return vertical_symmetry_rotations(read_mesh(gt), tol);
+          return symmetric_rotations(prepared_shape_symmetries(shape.dir, tol));
         } catch (const std::exception& e) {
           throw IoError(gt + ": cannot find the shape's symmetries (" + e.what() + "); --symmetry-tol 0 trains without");
         }

@@ -12,6 +12,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 
 namespace sdfkit {
@@ -59,7 +61,8 @@ ShapeFiles::ShapeFiles(const std::string& shape_dir)
     : norm((fs::path(shape_dir) / "norm.json").string()),
       sdf((fs::path(shape_dir) / "sdf.vdb").string()),
       samples((fs::path(shape_dir) / "samples.npy").string()),
-      gt((fs::path(shape_dir) / "gt.obj").string()) {}
+      gt((fs::path(shape_dir) / "gt.obj").string()),
+      symmetries((fs::path(shape_dir) / "symmetries.json").string()) {}
 
 bool shape_is_complete(const std::string& shape_dir) {
   const ShapeFiles files(shape_dir);
@@ -67,29 +70,90 @@ bool shape_is_complete(const std::string& shape_dir) {
          fs::is_regular_file(files.gt);
 }
 
-Mesh read_prepared_source(const std::string& shape_dir, const TextureSampler& textures) {
+PreparedSource prepared_source(const std::string& shape_dir) {
   const std::string norm_path = ShapeFiles(shape_dir).norm;
   const Json j = read_json(norm_path);
   if (!j.is_object() || !j.contains("source") || !j["source"].is_string() || j["source"].get<std::string>().empty())
     throw IoError(norm_path + ": records no source mesh (\"source\")");
-  UpAxis up = UpAxis::kY;
+  PreparedSource src;
+  src.path = j["source"].get<std::string>();
   if (j.contains("up")) {
     if (!j["up"].is_string()) throw IoError(norm_path + ": \"up\" is not a string");
     try {
-      up = parse_up_axis(j["up"].get<std::string>());
+      src.up = parse_up_axis(j["up"].get<std::string>());
     } catch (const InvalidInput& e) {
       throw IoError(norm_path + ": " + e.what());
     }
   }
-  Normalization norm;
   try {
-    norm = normalization_from_json(j);
+    src.norm = normalization_from_json(j);
   } catch (const InvalidInput& e) {
     std::string m = e.what();
     if (m.rfind("norm.json: ", 0) == 0) m = m.substr(11);
     throw IoError(norm_path + ": " + m);
   }
-  return apply_normalization(to_y_up(read_mesh(j["source"].get<std::string>(), nullptr, textures), up), norm);
+  std::error_code ec;
+  if (!fs::is_regular_file(src.path, ec))
+    throw IoError(src.path + ": the source mesh that " + norm_path + " records does not exist");
+  return src;
+}
+
+Mesh read_prepared_source(const std::string& shape_dir, const TextureSampler& textures) {
+  const PreparedSource src = prepared_source(shape_dir);
+  return apply_normalization(to_y_up(read_mesh(src.path, nullptr, textures), src.up), src.norm);
+}
+
+std::vector<RotationSymmetry> prepared_shape_symmetries(const std::string& shape_dir, double tol) {
+  require(std::isfinite(tol) && tol > 0, "symmetries: the tolerance must be positive and finite");
+  const ShapeFiles files(shape_dir);
+  std::error_code ec;
+  const auto bytes = fs::file_size(files.gt, ec);
+  if (ec) throw IoError(files.gt + ": cannot read (" + ec.message() + ")");
+  const auto mtime = fs::last_write_time(files.gt, ec);
+  if (ec) throw IoError(files.gt + ": cannot read (" + ec.message() + ")");
+  const auto stamp = static_cast<int64_t>(mtime.time_since_epoch().count());
+  char key[32];  // the shortest decimal that reads back as tol: "0.01"
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(key, sizeof key, "%.*g", digits, tol);
+    if (std::strtod(key, nullptr) == tol) break;
+  }
+  // The turns a matching cache records, as vertical_symmetries reports them.
+  const auto from_turns = [](const std::vector<int>& turns) {
+    std::vector<RotationSymmetry> out;
+    for (const int degrees : {90, 180, 270}) {
+      RotationSymmetry r;
+      r.degrees = degrees;
+      r.R = vertical_turn(degrees);
+      r.symmetric = std::find(turns.begin(), turns.end(), degrees) != turns.end();
+      out.push_back(r);
+    }
+    return out;
+  };
+  Json cache = Json::object();
+  try {
+    if (fs::exists(files.symmetries, ec)) {
+      const Json j = read_json(files.symmetries);
+      if (j.is_object() && j.value("gt_bytes", Json()) == Json(static_cast<uint64_t>(bytes)) &&
+          j.value("gt_mtime", Json()) == Json(stamp) && j.contains("turns") && j["turns"].is_object()) {
+        cache = j;
+        if (cache["turns"].contains(key)) return from_turns(cache["turns"][key].get<std::vector<int>>());
+      }
+    }
+  } catch (const std::exception&) {  // an unreadable cache is rebuilt
+    cache = Json::object();
+  }
+  const std::vector<RotationSymmetry> found = vertical_symmetries(read_mesh(files.gt), tol);
+  std::vector<int> turns;
+  for (const RotationSymmetry& r : found)
+    if (r.symmetric) turns.push_back(r.degrees);
+  if (!cache.contains("turns")) cache = Json{{"gt_bytes", static_cast<uint64_t>(bytes)}, {"gt_mtime", stamp},
+                                             {"turns", Json::object()}};
+  cache["turns"][key] = turns;
+  try {
+    write_json(files.symmetries, cache);
+  } catch (const std::exception&) {  // a read-only dataset: found again next time
+  }
+  return found;
 }
 
 std::vector<std::string> prepared_differences(const std::string& shape_dir, const PrepareSettings& s) {

@@ -7,6 +7,14 @@
 
 namespace sdfkit {
 
+Mat3 vertical_turn(int degrees) {
+  require(degrees == 90 || degrees == 180 || degrees == 270, "vertical_turn: the angle must be 90, 180 or 270 degrees");
+  const double c = degrees == 180 ? -1.0 : 0.0, sn = degrees == 90 ? 1.0 : degrees == 270 ? -1.0 : 0.0;
+  Mat3 R;
+  R << c, 0, sn, 0, 1, 0, -sn, 0, c;
+  return R;
+}
+
 std::vector<RotationSymmetry> vertical_symmetries(const Mesh& mesh, double tol) {
   require(!mesh.empty(), "vertical_symmetries: empty mesh");
   require(std::isfinite(tol) && tol > 0, "vertical_symmetries: the tolerance must be positive and finite");
@@ -20,9 +28,7 @@ std::vector<RotationSymmetry> vertical_symmetries(const Mesh& mesh, double tol) 
   for (const int degrees : {90, 180, 270}) {
     RotationSymmetry s;
     s.degrees = degrees;
-    // Exact cosines and sines for the quarter turns (no round-off in the matrix).
-    const double c = degrees == 180 ? -1.0 : 0.0, sn = degrees == 90 ? 1.0 : degrees == 270 ? -1.0 : 0.0;
-    s.R << c, 0, sn, 0, 1, 0, -sn, 0, c;
+    s.R = vertical_turn(degrees);
     s.symmetric = true;
     int32_t hint = -1;
     for (Eigen::Index i = 0; i < P.rows() && s.symmetric; ++i) {
@@ -36,9 +42,9 @@ std::vector<RotationSymmetry> vertical_symmetries(const Mesh& mesh, double tol) 
   return out;
 }
 
-std::vector<Mat3> vertical_symmetry_rotations(const Mesh& mesh, double tol) {
+std::vector<Mat3> symmetric_rotations(const std::vector<RotationSymmetry>& tested) {
   std::vector<Mat3> out;
-  for (const RotationSymmetry& r : vertical_symmetries(mesh, tol))
+  for (const RotationSymmetry& r : tested)
     if (r.symmetric) out.push_back(r.R);
   return out;
 }

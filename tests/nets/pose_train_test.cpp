@@ -486,6 +486,14 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
   const test::CliRun no_norm = test::run_sdfkit(twins_cmd + " --json");
   CHECK(no_norm.code == 1);
   CHECK(no_norm.err.find("norm.json") != std::string::npos);
+  // A recorded source that is gone is named (checked for every shape before the network reads any image).
+  for (const std::string id : {"car/a", "lamp/b"})
+    write_json((root / id / "norm.json").string(),
+               Json{{"norm", {0.0, 0.0, 0.0, 1.0}}, {"source", (root / id / "gone.obj").string()}});
+  const test::CliRun gone = test::run_sdfkit(twins_cmd + " --json");
+  CHECK(gone.code == 1);
+  CHECK(gone.err.find("gone.obj") != std::string::npos);
+  CHECK(gone.out.empty());
   for (const std::string id : {"car/a", "lamp/b"}) {
     const std::string src = (root / id / "source.obj").string();
     write_mesh(src, id == "car/a" ? make_box(Vec3(-0.5, -0.3, -0.2), Vec3(0.5, 0.3, 0.2))

@@ -5,10 +5,12 @@
 #include "scratch.h"
 #include "sdf/normalize.h"
 #include "sdf/prepare.h"
+#include "sdf/symmetry.h"
 #include "test_meshes.h"
 
 #include <doctest/doctest.h>
 
+#include <chrono>
 #include <filesystem>
 
 using namespace sdfkit;
@@ -81,6 +83,11 @@ TEST_CASE("read_prepared_source: the source mesh in the views' frame with its co
   prepare_shape(src, shape, s);
   const Mesh m = read_prepared_source(shape);
   const Normalization norm = normalization_from_json(read_json(ShapeFiles(shape).norm));
+  const PreparedSource ps = prepared_source(shape);  // what norm.json records, without reading the mesh
+  CHECK(ps.path == src);
+  CHECK(ps.up == UpAxis::kZ);
+  CHECK(ps.norm.center == norm.center);
+  CHECK(ps.norm.radius == norm.radius);
   const Mesh expect = apply_normalization(to_y_up(read_mesh(src), UpAxis::kZ), norm);
   REQUIRE(m.V.rows() == expect.V.rows());
   CHECK((m.V - expect.V).cwiseAbs().maxCoeff() < 1e-12);
@@ -108,6 +115,17 @@ TEST_CASE("read_prepared_source: the source mesh in the views' frame with its co
   } catch (const Error& e) {
     CHECK(std::string(e.what()).find("gone.ply") != std::string::npos);
   }
+  try {  // found before any mesh is read
+    (void)prepared_source(shape);
+    FAIL("missing source: expected an error");
+  } catch (const IoError& e) {
+    CHECK(std::string(e.what()).find("gone.ply") != std::string::npos);
+    CHECK(std::string(e.what()).find(ShapeFiles(shape).norm) != std::string::npos);
+  }
+  j["source"] = src;
+  j["up"] = 3;
+  write_json(ShapeFiles(shape).norm, j);
+  CHECK_THROWS_AS((void)prepared_source(shape), IoError);
   fs::remove_all(dir);
 }
 
@@ -134,5 +152,52 @@ TEST_CASE("prepare: bad input names the file and leaves no complete shape") {
   write_text_atomic(empty, "");
   CHECK_THROWS_WITH(prepare_shape(empty, (dir / "out").string()), doctest::Contains("empty.obj"));
   CHECK_FALSE(shape_is_complete((dir / "out").string()));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("prepared_shape_symmetries: found once, read back from symmetries.json, found again when gt.obj changes") {
+  const fs::path dir = test::scratch_dir("prepare_symmetries");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const ShapeFiles files(dir.string());
+  const auto symmetric = [](const std::vector<RotationSymmetry>& r) {
+    std::vector<int> out;
+    for (const RotationSymmetry& s : r)
+      if (s.symmetric) out.push_back(s.degrees);
+    return out;
+  };
+  CHECK_THROWS_WITH_AS(prepared_shape_symmetries(dir.string(), 0.01), doctest::Contains("gt.obj"), IoError);
+  const Mesh oblong = make_box(Vec3(-0.5, -0.3, -0.2), Vec3(0.5, 0.3, 0.2));
+  write_mesh(files.gt, oblong);
+  const auto first = prepared_shape_symmetries(dir.string(), 0.01);
+  REQUIRE(first.size() == 3);
+  CHECK(symmetric(first) == std::vector<int>{180});
+  CHECK(symmetric(first) == symmetric(vertical_symmetries(oblong, 0.01)));
+  CHECK(first[1].R == vertical_turn(180));
+  Json cache = read_json(files.symmetries);
+  CHECK(cache.at("turns").at("0.01").get<std::vector<int>>() == std::vector<int>{180});
+  // The cache is what a second call reads: an edited entry comes back as it is.
+  cache["turns"]["0.01"] = std::vector<int>{90, 270};
+  write_json(files.symmetries, cache);
+  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.01)) == std::vector<int>{90, 270});
+  // Another tolerance is found and added beside it.
+  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.05)) == std::vector<int>{180});
+  cache = read_json(files.symmetries);
+  CHECK(cache.at("turns").size() == 2);
+  // A new gt.obj (other size and time): every entry is stale, found again.
+  const Mesh square = make_box(Vec3(-0.4, -0.3, -0.4), Vec3(0.4, 0.3, 0.4));
+  write_mesh(files.gt, square);
+  fs::last_write_time(files.gt, fs::last_write_time(files.gt) + std::chrono::seconds(5));
+  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.01)) == std::vector<int>{90, 180, 270});
+  cache = read_json(files.symmetries);
+  CHECK(cache.at("turns").size() == 1);
+  // A corrupt cache is rebuilt; a cache that cannot be written (a folder in its place) is skipped.
+  write_text_atomic(files.symmetries, "{");
+  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.01)) == std::vector<int>{90, 180, 270});
+  CHECK(read_json(files.symmetries).at("turns").at("0.01").size() == 3);
+  fs::remove(files.symmetries);
+  fs::create_directories(files.symmetries);
+  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.01)) == std::vector<int>{90, 180, 270});
+  CHECK_THROWS_AS(prepared_shape_symmetries(dir.string(), 0.0), InvalidInput);
   fs::remove_all(dir);
 }

@@ -68,3 +68,17 @@ TEST_CASE("vertical symmetries: the tolerance decides near-symmetric shapes, bad
   CHECK_THROWS_AS(vertical_symmetries(almost, 0.0), InvalidInput);
   CHECK_THROWS_AS(vertical_symmetries(almost, std::nan("")), InvalidInput);
 }
+
+TEST_CASE("vertical_turn and symmetric_rotations: exact quarter turns, the symmetric ones in order") {
+  for (const int deg : {90, 180, 270}) {
+    const Mat3 expect = Eigen::AngleAxisd(deg * M_PI / 180.0, Vec3::UnitY()).toRotationMatrix();
+    CHECK((vertical_turn(deg) - expect).cwiseAbs().maxCoeff() < 1e-15);
+  }
+  CHECK(vertical_turn(180)(0, 0) == -1.0);  // exact, no round-off
+  CHECK_THROWS_AS(vertical_turn(45), InvalidInput);
+  const auto tested = vertical_symmetries(make_box(Vec3(-0.5, -0.3, -0.2), Vec3(0.5, 0.3, 0.2)), 1e-3);
+  const std::vector<Mat3> g = symmetric_rotations(tested);
+  REQUIRE(g.size() == 1);
+  CHECK(g[0] == vertical_turn(180));
+  CHECK(symmetric_rotations({}).empty());
+}
