@@ -380,22 +380,16 @@ std::function<int()> setup_recon(CLI::App& app) {
     const bool sidecar = o->cam == "sidecar";
     Camera fixed_camera;
     if (!estimate && !sidecar) fixed_camera = read_camera(o->cam);
-    // The photo pose model: given, or the default one beside the default pose model (a pose model of one's own
-    // comes without it unless --photo-pose-model names one).
-    std::string photo_pose;
-    if (estimate && app.get_option("--photo-pose-model")->count() > 0) {
-      if (o->photo_pose_model != "none") photo_pose = o->photo_pose_model;
-    } else if (estimate && app.get_option("--pose-model")->count() == 0 && !o->photo_pose_model.empty() &&
-               fs::exists(o->photo_pose_model)) {
-      photo_pose = o->photo_pose_model;
-    }
-    // The photo SDF model, by the same rule.
-    std::string photo_model;
-    if (app.get_option("--photo-model")->count() > 0) {
-      if (o->photo_model != "none") photo_model = require_model_path(o->photo_model, "--photo-model");
-    } else if (app.get_option("--model")->count() == 0 && !o->photo_model.empty() && fs::exists(o->photo_model)) {
-      photo_model = o->photo_model;
-    }
+    // The photo pose and SDF models: given (or "none"), else the default one when it exists and the main model is
+    // the default too (a model of one's own comes without its photo companion unless one is named).
+    const auto companion = [&](const char* flag, const std::string& path, const char* main_flag) -> std::string {
+      if (app.get_option(flag)->count() > 0) return path == "none" ? std::string() : require_model_path(path, flag);
+      if (app.get_option(main_flag)->count() == 0 && !path.empty() && fs::exists(path)) return path;
+      return {};
+    };
+    const std::string photo_pose =
+        estimate ? companion("--photo-pose-model", o->photo_pose_model, "--pose-model") : std::string();
+    const std::string photo_model = companion("--photo-model", o->photo_model, "--model");
     const auto rec = Reconstructor::load(require_model_path(o->model, "--model"),
                                          estimate ? require_model_path(o->pose_model, "--pose-model") : std::string(),
                                          photo_pose, photo_model);
