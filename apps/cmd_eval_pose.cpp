@@ -136,9 +136,10 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     search.tol = o->twin_tol;
     size_t twin_shape = std::numeric_limits<size_t>::max();
     std::unique_ptr<MeshRenderer> twin_renderer;
+    std::vector<PreparedSource> sources;
     if (o->twins) {
       // Every shape's source mesh must be there: say so now, not after the network has read every image.
-      for (const ShapeEntry& shape : data.shapes()) (void)prepared_source(shape.dir);
+      for (const ShapeEntry& shape : data.shapes()) sources.push_back(prepared_source(shape.dir));
       o->e.twins = [&](size_t s, int, const Camera& truth, const Camera& predicted) {
         std::vector<Mat3> out;
         const double turn = rotation_error_degrees(predicted.R, truth.R).second;
@@ -148,7 +149,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
         }
         if (s != twin_shape) {
           twin_renderer =
-              std::make_unique<MeshRenderer>(read_prepared_source(data.shape(s).dir, image_texture_sampler()));
+              std::make_unique<MeshRenderer>(read_prepared_source(sources.at(s), image_texture_sampler()));
           twin_shape = s;
         }
         double best = 0;

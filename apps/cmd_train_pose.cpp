@@ -138,11 +138,10 @@ std::function<int()> setup_train_pose(CLI::App& app) {
     if (o->symmetry_tol > 0) {
       const double tol = o->symmetry_tol;
       s.symmetries = [tol](const ShapeEntry& shape) {
-        const std::string gt = ShapeFiles(shape.dir).gt;
         try {
           return symmetric_rotations(prepared_shape_symmetries(shape.dir, tol));
-        } catch (const std::exception& e) {
-          throw IoError(gt + ": cannot find the shape's symmetries (" + e.what() + "); --symmetry-tol 0 trains without");
+        } catch (const std::exception& e) {  // the message names gt.obj (or its cache) already
+          throw IoError(std::string(e.what()) + " (finding the shape's symmetries; --symmetry-tol 0 trains without)");
         }
       };
       char tag[64];

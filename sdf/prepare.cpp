@@ -98,9 +98,12 @@ PreparedSource prepared_source(const std::string& shape_dir) {
   return src;
 }
 
-Mesh read_prepared_source(const std::string& shape_dir, const TextureSampler& textures) {
-  const PreparedSource src = prepared_source(shape_dir);
+Mesh read_prepared_source(const PreparedSource& src, const TextureSampler& textures) {
   return apply_normalization(to_y_up(read_mesh(src.path, nullptr, textures), src.up), src.norm);
+}
+
+Mesh read_prepared_source(const std::string& shape_dir, const TextureSampler& textures) {
+  return read_prepared_source(prepared_source(shape_dir), textures);
 }
 
 std::vector<RotationSymmetry> prepared_shape_symmetries(const std::string& shape_dir, double tol) {
@@ -142,7 +145,13 @@ std::vector<RotationSymmetry> prepared_shape_symmetries(const std::string& shape
   } catch (const std::exception&) {  // an unreadable cache is rebuilt
     cache = Json::object();
   }
-  const std::vector<RotationSymmetry> found = vertical_symmetries(read_mesh(files.gt), tol);
+  const Mesh gt = read_mesh(files.gt);  // errors name the file
+  std::vector<RotationSymmetry> found;
+  try {
+    found = vertical_symmetries(gt, tol);
+  } catch (const InvalidInput& e) {
+    throw IoError(files.gt + ": " + e.what());
+  }
   std::vector<int> turns;
   for (const RotationSymmetry& r : found)
     if (r.symmetric) turns.push_back(r.degrees);

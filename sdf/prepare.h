@@ -77,12 +77,14 @@ PreparedSource prepared_source(const std::string& shape_dir);
 /// read with `textures` (colours kept), turned to +y up and mapped by its normalization. IoError as prepared_source,
 /// or naming the source when it cannot be read.
 Mesh read_prepared_source(const std::string& shape_dir, const TextureSampler& textures = {});
+/// The same from a source prepared_source already checked (no second read of norm.json).
+Mesh read_prepared_source(const PreparedSource& source, const TextureSampler& textures = {});
 
 /// vertical_symmetries of a prepared shape's gt.obj at `tol`, cached in its symmetries.json: the symmetric turns
 /// are stored per tolerance together with gt.obj's size and modification time, and reused while both match (finding
 /// them reads and tests the whole mesh: about 0.1 s per benchmark shape, minutes for a training split). A missing,
 /// unreadable or stale cache is recomputed and rewritten atomically; a folder that cannot be written (a read-only
-/// dataset) is just not cached. IoError naming gt.obj when it cannot be read; InvalidInput as vertical_symmetries.
+/// dataset) is just not cached. IoError naming gt.obj when it cannot be read or vertical_symmetries refuses it.
 std::vector<RotationSymmetry> prepared_shape_symmetries(const std::string& shape_dir, double tol);
 
 /// The settings that a complete shape's norm.json records differently from `settings` (up, grid.voxel_size,

@@ -92,6 +92,7 @@ TEST_CASE("read_prepared_source: the source mesh in the views' frame with its co
   REQUIRE(m.V.rows() == expect.V.rows());
   CHECK((m.V - expect.V).cwiseAbs().maxCoeff() < 1e-12);
   CHECK(m.V.rowwise().norm().maxCoeff() == doctest::Approx(1.0).epsilon(1e-9));  // the unit sphere
+  CHECK(read_prepared_source(ps).V == m.V);  // from the checked source: the same mesh
   const Eigen::RowVector3d extent = m.V.colwise().maxCoeff() - m.V.colwise().minCoeff();
   CHECK(extent.y() == doctest::Approx(4 * extent.x()).epsilon(1e-9));  // turned to +y up
   REQUIRE(m.has_colors());
