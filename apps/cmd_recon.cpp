@@ -8,7 +8,6 @@
 #include "core/json.h"
 #include "core/random.h"
 #include "core/mesh_io.h"
-#include "nets/seg_net.h"
 #include "recon/recon.h"
 #include "recon/recon_json.h"
 
@@ -21,55 +20,12 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
-#include <mutex>
 #include <sstream>
 
 namespace fs = std::filesystem;
 
 namespace sdfkit::app {
 namespace {
-
-const std::vector<std::string> kImageExtensions = {"png", "jpg", "jpeg", "exr", "tif", "tiff", "bmp"};
-
-bool is_image_path(const std::string& p) {
-  const std::string e = extension_of(p);
-  return std::find(kImageExtensions.begin(), kImageExtensions.end(), e) != kImageExtensions.end();
-}
-
-/// IMAGE, a folder of images (sorted, not recursive; *_mask.*, *.mask.* and *.preview.* files skipped), or a list file
-/// (one path per line, relative to the list's folder).
-std::vector<std::string> collect_inputs(const std::string& input) {
-  std::vector<std::string> out;
-  if (fs::is_directory(input)) {
-    for (const auto& e : fs::directory_iterator(input)) {
-      const std::string p = e.path().string(), stem = e.path().stem().string();
-      if (!e.is_regular_file() || !is_image_path(p)) continue;
-      if (stem.size() > 5 && stem.substr(stem.size() - 5) == "_mask") continue;
-      if (stem.size() > 8 && stem.substr(stem.size() - 8) == ".preview") continue;
-      if (stem.size() > 5 && stem.substr(stem.size() - 5) == ".mask") continue;
-      out.push_back(p);
-    }
-    std::sort(out.begin(), out.end());
-    if (out.empty()) throw InvalidInput(input + ": folder holds no images (" + "png, jpg, exr, tif, bmp)");
-    return out;
-  }
-  if (!fs::exists(input)) throw IoError(input + ": no such file or folder");
-  const std::string ext = extension_of(input);
-  if (ext == "txt" || ext == "lst") {
-    std::istringstream in(read_file(input));
-    std::string line;
-    while (std::getline(in, line)) {
-      while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
-      if (line.empty() || line[0] == '#') continue;
-      fs::path p(line);
-      if (p.is_relative()) p = fs::path(input).parent_path() / p;
-      out.push_back(p.string());
-    }
-    if (out.empty()) throw InvalidInput(input + ": list holds no image paths");
-    return out;
-  }
-  return {input};
-}
 
 /// Flags that do not apply to the chosen mode are errors, not silently ignored.
 void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool local, bool dense, bool mask) {
@@ -83,7 +39,7 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
   if (dense && given("--no-follow")) throw InvalidInput("--no-follow applies to the adaptive extraction, not to --dense");
-  for (const char* f : {"--segment", "--box", "--seg-model", "--seg-zoom"})
+  for (const char* f : {"--segment", "--box", "--seg-model", "--seg-zoom", "--seg-scan"})
     if (mask && given(f)) throw InvalidInput(std::string(f) + " does not apply with --mask (the mask gives the object)");
 }
 
@@ -148,7 +104,7 @@ int fuse_views(const Reconstructor& rec, const std::vector<std::string>& inputs,
 
 std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
-    std::string input, out, model, photo_model, pose_model, photo_pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto",
+    std::string input, out, model, photo_model, pose_model, photo_pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto", seg_scan = "on",
                 framing = "auto", box;
     std::string pose_distances = "off", pose_tta = "mirror", pose_zoom_tta = zoom_list(kDefaultPoseZoomTta);
     ReconSettings s;
@@ -208,6 +164,7 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "(0 = one reading of the whole image; docs/recon.md)")
       ->capture_default_str()
       ->check(CLI::Range(0, 4));
+  app.add_option("--seg-scan", o->seg_scan, kSegScanHelp)->capture_default_str()->check(CLI::IsMember({"on", "off"}));
   app.add_option("--box", o->box, "X,Y,W,H: the object lies inside this pixel box (GrabCut's seed; outside is background)");
   app.add_option("--framing", o->framing,
                  "auto = keep an image framed like the training renders (square, object centred at their scale), "
@@ -348,20 +305,14 @@ std::function<int()> setup_recon(CLI::App& app) {
     o->s.preview = !o->no_preview;
     o->s.refine_joint = o->refine_mode == "joint";
     o->s.framing.segment = parse_segmentation(o->segment);
-    for (const char* f : {"--seg-model", "--seg-zoom"})
+    for (const char* f : {"--seg-model", "--seg-zoom", "--seg-scan"})
       if (app.get_option(f)->count() > 0 &&
           (o->s.framing.segment == Segmentation::kGrabCut || o->s.framing.segment == Segmentation::kNone))
         throw InvalidInput(std::string(f) + " applies with --segment net or auto");
     if (o->mask.empty() && (o->s.framing.segment == Segmentation::kNet ||
                             (o->s.framing.segment == Segmentation::kAuto && !o->seg_model.empty() &&
                              (app.get_option("--seg-model")->count() > 0 || fs::exists(o->seg_model))))) {
-      // One network for every image; recon's parallel jobs take turns (a forward of a 128 px image is milliseconds).
-      auto net = std::shared_ptr<SegNet>(load_seg_model(require_model_path(o->seg_model, "--seg-model")));
-      auto lock = std::make_shared<std::mutex>();
-      o->s.framing.segmenter = [net, lock](const Image& rgb) {
-        const std::lock_guard<std::mutex> guard(*lock);
-        return predict_foreground(*net, rgb);
-      };
+      o->s.framing.segmenter = shared_segmenter(require_model_path(o->seg_model, "--seg-model"));
     }
     o->s.framing.reframe = parse_reframing(o->framing);
     o->s.pose_mirror_tta = o->pose_tta == "mirror";
@@ -370,6 +321,7 @@ std::function<int()> setup_recon(CLI::App& app) {
       std::tie(o->s.pose_distance_min, o->s.pose_distance_max) =
           parse_positive_range(o->pose_distances, "recon: --pose-distances");
     if (!o->box.empty()) o->s.framing.box = parse_pixel_box(o->box);
+    o->s.framing.segmenter_scan = seg_scan_setting(app, o->seg_scan, o->s.framing.segmenter_zoom_rounds);
     if (o->refine && o->s.refine_rounds == 0) o->s.refine_rounds = 1;
     const bool estimate = o->cam == "est";
     check_flags_apply(app, estimate, o->s.refine_rounds > 0, o->s.refine.local_search, o->s.dense, !o->mask.empty());

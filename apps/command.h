@@ -2,6 +2,8 @@
 // A command is one file apps/cmd_<name>.cpp that ends with SDFKIT_REGISTER_COMMAND.
 #pragma once
 
+#include "camera/image.h"
+
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
@@ -57,6 +59,22 @@ std::string join_widths(const std::vector<int>& widths);
 extern const std::vector<std::string> kMeshOutExtensions;
 /// True when `path` ends in one of kMeshOutExtensions (case-insensitive): a mesh file rather than a folder.
 bool is_mesh_out_path(const std::string& path);
+
+/// True when `path` ends in an image extension the commands read (png, jpg, jpeg, exr, tif, tiff, bmp).
+bool is_image_path(const std::string& path);
+/// The images of an input argument: IMAGE, a folder of images (sorted, not recursive; *_mask.*, *.mask.* and
+/// *.preview.* files skipped), or a .txt/.lst list file (one path per line, relative to the list's folder; blank
+/// lines and # comments skipped). IoError / InvalidInput naming `input` when it is missing or holds no image.
+std::vector<std::string> collect_inputs(const std::string& input);
+
+/// The segmenter network of `model_path` (nets/seg_net.h) as FramingSettings::segmenter: one network shared by
+/// every caller, which take turns (a forward of a 128 px image is milliseconds). IoError naming the file.
+std::function<sdfkit::Image(const sdfkit::Image& rgb)> shared_segmenter(const std::string& model_path);
+
+/// Help text of --seg-scan (recon, segment), and its setting: "on" / "off"; --seg-scan on with --seg-zoom 0 is an
+/// InvalidInput (the scan zooms in on each window's answer).
+extern const char* const kSegScanHelp;
+bool seg_scan_setting(const CLI::App& app, const std::string& value, int zoom_rounds);
 
 /// True when stderr is a terminal (progress bars are drawn only then).
 bool stderr_is_tty();

@@ -450,8 +450,22 @@ Image plain_background_mask(const Image& rgb, const float background[3], double 
   return out;
 }
 
+double mask_iou(const Image& a, const Image& b) {
+  if (a.width != b.width || a.height != b.height)
+    throw InvalidInput("mask_iou: masks of different sizes (" + std::to_string(a.width) + "x" + std::to_string(a.height) +
+                       " and " + std::to_string(b.width) + "x" + std::to_string(b.height) + ")");
+  long both = 0, either = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) {
+      const bool in_a = mask_value(a, x, y) > 0.5f, in_b = mask_value(b, x, y) > 0.5f;
+      both += in_a && in_b;
+      either += in_a || in_b;
+    }
+  return either == 0 ? 1.0 : static_cast<double>(both) / static_cast<double>(either);
+}
+
 Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter, const Image& rgb, int rounds,
-                        double fill, const std::string& what, int* zooms) {
+                        double fill, const std::string& what, int* zooms, bool windows, SegmenterScan* scan) {
   require(static_cast<bool>(segmenter), "zoomed_foreground: no segmenter");
   require(rounds >= 0 && fill > 0 && fill <= 1, "zoomed_foreground: rounds >= 0 and fill in (0, 1] required");
   const int W = rgb.width, H = rgb.height;
@@ -461,15 +475,8 @@ Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter,
       throw InvalidInput(what + ": the segmenter answered with a map of another size");
     return p;
   };
-  Image p = read(rgb);
-  if (zooms != nullptr) *zooms = 0;
-  for (int round = 0; round < rounds; ++round) {
-    long count = 0;
-    const PixelBox b = hard_box(p, &count);
-    if (count == 0) break;
-    const int side = std::max(8, static_cast<int>(std::lround(std::max(b.w, b.h) / fill)));
-    if (side >= std::max(W, H)) break;
-    const int ox = (2 * b.x + b.w) / 2 - side / 2, oy = (2 * b.y + b.h) / 2 - side / 2;
+  // The square [ox, ox + side)^2 of rgb (pixels outside repeat its edge), read, answered in a full-size map.
+  const auto read_square = [&](int ox, int oy, int side) {
     Image square(side, side, rgb.channels);
     for (int y = 0; y < side; ++y)
       for (int x = 0; x < side; ++x) {
@@ -480,10 +487,80 @@ Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter,
     Image next(W, H, 1, 0.0f);
     for (int y = std::max(0, oy); y < std::min(H, oy + side); ++y)
       for (int x = std::max(0, ox); x < std::min(W, ox + side); ++x) next.at(x, y) = q.at(x - ox, y - oy);
-    p = std::move(next);
-    if (zooms != nullptr) ++*zooms;
+    return next;
+  };
+  struct Zoomed {
+    Image p;
+    int zooms = 0;
+  };
+  const auto zoom = [&](Image p) {
+    Zoomed z;
+    for (int round = 0; round < rounds; ++round) {
+      long count = 0;
+      const PixelBox b = hard_box(p, &count);
+      if (count == 0) break;
+      const int side = std::max(8, static_cast<int>(std::lround(std::max(b.w, b.h) / fill)));
+      if (side >= std::max(W, H)) break;
+      const int ox = (2 * b.x + b.w) / 2 - side / 2, oy = (2 * b.y + b.h) / 2 - side / 2;
+      p = read_square(ox, oy, side);
+      ++z.zooms;
+    }
+    z.p = std::move(p);
+    return z;
+  };
+  Zoomed whole = zoom(read(rgb));
+  if (scan != nullptr) *scan = {};
+  if (!windows || rounds == 0) {
+    if (zooms != nullptr) *zooms = whole.zooms;
+    return whole.p;
   }
-  return p;
+  // The window scan: squares of 0.6 of the longer side, at most half a square apart along each axis, each read and
+  // zoomed in on as the whole image is. In the whole image's 128 px letterbox a small or thin object can go
+  // unseen while a salient part of the photo is taken for the object; a window shows it 1.7 times larger.
+  std::vector<Zoomed> cands;
+  cands.push_back(std::move(whole));
+  const int L = std::max(W, H), side = static_cast<int>(std::lround(kScanWindow * L));
+  const auto places = [side](int extent) {
+    std::vector<int> out;
+    if (extent <= side) return std::vector<int>{(extent - side) / 2};
+    const int n = 1 + static_cast<int>(std::ceil((extent - side) / (0.5 * side)));
+    for (int i = 0; i < n; ++i) out.push_back(static_cast<int>(std::lround(double(i) * (extent - side) / (n - 1))));
+    return out;
+  };
+  for (const int oy : places(H))
+    for (const int ox : places(W)) cands.push_back(zoom(read_square(ox, oy, side)));
+  // Each candidate's final answer (p > 0.5) against every other's: the object is what most readings agree on,
+  // a salient region of the photo is what one window's reading alone takes for it.
+  const size_t n = cands.size();
+  std::vector<std::vector<char>> hard(n, std::vector<char>(static_cast<size_t>(W) * H));
+  for (size_t k = 0; k < n; ++k)
+    for (size_t i = 0; i < hard[k].size(); ++i) hard[k][i] = cands[k].p.data[i] > 0.5f;
+  size_t best = 0;
+  double best_score = -1;
+  for (size_t k = 0; k < n; ++k) {
+    double sum = 0;
+    for (size_t l = 0; l < n; ++l) {
+      if (l == k) continue;
+      long both = 0, either = 0;
+      for (size_t i = 0; i < hard[k].size(); ++i) {
+        both += hard[k][i] && hard[l][i];
+        either += hard[k][i] || hard[l][i];
+      }
+      sum += either == 0 ? 0.0 : static_cast<double>(both) / static_cast<double>(either);
+    }
+    const double score = sum / static_cast<double>(n - 1);
+    if (score > best_score) {  // ties keep the earlier candidate: the whole image first
+      best_score = score;
+      best = k;
+    }
+  }
+  if (scan != nullptr) {
+    scan->candidates = static_cast<int>(n);
+    scan->chosen = static_cast<int>(best);
+    scan->agreement = best_score;
+  }
+  if (zooms != nullptr) *zooms = cands[best].zooms;
+  return std::move(cands[best].p);
 }
 
 FramedInput frame_input(const Image& image, const Image* mask, const FramingSettings& st, const std::string& what) {
@@ -525,7 +602,8 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
       if (!st.segmenter) throw InvalidInput(what + ": --segment net needs a segmenter model (--seg-model)");
       require(st.segmenter_high > st.segmenter_low, "framing: the segmenter's ramp needs low < high");
       const Image p =
-          zoomed_foreground(st.segmenter, rgb, st.segmenter_zoom_rounds, st.segmenter_zoom_fill, what, &f.segmenter_zooms);
+          zoomed_foreground(st.segmenter, rgb, st.segmenter_zoom_rounds, st.segmenter_zoom_fill, what, &f.segmenter_zooms,
+                            st.segmenter_scan, &f.segmenter_scan);
       f.mask = Image(W, H, 1);
       const double span = st.segmenter_high - st.segmenter_low;
       for (size_t i = 0; i < p.data.size(); ++i) {

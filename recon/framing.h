@@ -96,6 +96,16 @@ struct FramingSettings {
   int segmenter_zoom_rounds = 2;
   /// The object's box's longer side / the side of the square each round reads.
   double segmenter_zoom_fill = 0.7;
+  /// Also read windows of the image and keep the answer most readings agree on (zoomed_foreground's `windows`;
+  /// `recon --seg-scan`). Needs segmenter_zoom_rounds > 0.
+  bool segmenter_scan = true;
+};
+
+/// What zoomed_foreground's window scan did.
+struct SegmenterScan {
+  int candidates = 0;     ///< readings compared: the whole image and each window (0 = no scan)
+  int chosen = 0;         ///< the one kept (0 = the whole image's)
+  double agreement = 0;   ///< its mean mask IoU with the others
 };
 
 struct FramedInput {
@@ -108,6 +118,7 @@ struct FramedInput {
   std::vector<std::string> warnings;  ///< why the input is far from the training renders (empty = not far)
   double extent = 0;                ///< the object's longer side / crop side
   int segmenter_zooms = 0;          ///< rounds of FramingSettings::segmenter_zoom_rounds the segmenter ran
+  SegmenterScan segmenter_scan;     ///< FramingSettings::segmenter_scan's choice
 };
 
 /// The segmenter's foreground probability of `rgb`, read again closer up: the network reads a letterbox of fixed
@@ -116,9 +127,19 @@ struct FramedInput {
 /// on the box (pixels outside the image repeat its edge), lets the segmenter read it, and takes its answer there and
 /// 0 elsewhere (which also drops detached false detections). A round stops the zoom when the answer has no object
 /// or the square would be no smaller than the image's longer side. `zooms` (may be null) receives the rounds run.
+/// `windows` (with rounds > 0): the same again from each square window of kScanWindow of the image's longer side,
+/// placed at most half a window apart along each axis (3 x 2 windows on a 320 x 224 photo), each window's answer
+/// zoomed in on like the whole image's; of these candidates (the whole image's first) the one whose object
+/// (p > 0.5) has the highest mean IoU with the other candidates' is returned (ties: the earlier). A small object the
+/// whole image's reading misses for a salient part of the photo is found by the windows that show it larger, and
+/// agreed on. `scan` (may be null) receives the candidates' count, the choice and its agreement.
 /// InvalidInput naming `what` when the segmenter answers with a map of another size.
 Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter, const Image& rgb, int rounds,
-                        double fill, const std::string& what, int* zooms = nullptr);
+                        double fill, const std::string& what, int* zooms = nullptr, bool windows = false,
+                        SegmenterScan* scan = nullptr);
+
+/// Side of zoomed_foreground's scan windows, as a share of the image's longer side.
+inline constexpr double kScanWindow = 0.6;
 
 /// Frame `image` (any size, 1-4 channels). `mask` (optional, the image's size; its alpha, else its luminance =
 /// object) replaces the alpha and any segmentation. `what` names the input in messages. Throws InvalidInput (one
@@ -126,6 +147,11 @@ Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter,
 /// settings.min_object_px, or an image with no object.
 FramedInput frame_input(const Image& image, const Image* mask, const FramingSettings& settings,
                         const std::string& what);
+
+/// Intersection over union of two object masks of one size (1-4 channels each: the alpha when there is one, else
+/// the luminance, is the coverage; a pixel is object where it is over 0.5). 1 when neither has an object pixel.
+/// InvalidInput when the sizes differ.
+double mask_iou(const Image& a, const Image& b);
 
 /// A square crop of an input image: [x0, x0 + side] x [y0, y0 + side] in its continuous pixel coordinates.
 struct SquareCrop {

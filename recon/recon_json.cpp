@@ -5,6 +5,11 @@
 
 namespace sdfkit {
 
+Json segmenter_scan_json(const SegmenterScan& scan) {
+  if (scan.candidates == 0) return nullptr;
+  return {{"candidates", scan.candidates}, {"chosen", scan.chosen}, {"agreement", scan.agreement}};
+}
+
 Json recon_result_json(const ReconResult& r, const ReconSettings& settings, const ReconOutputPaths& paths,
                        int image_width, int image_height) {
   Json j = {{"input", paths.input}};
@@ -18,6 +23,7 @@ Json recon_result_json(const ReconResult& r, const ReconSettings& settings, cons
                   {"reframed", fr.reframed},
                   {"fit_rounds", r.framing_fits},
                   {"segmenter_zooms", fr.segmenter_zooms},
+                  {"segmenter_scan", segmenter_scan_json(fr.segmenter_scan)},
                   {"crop", {{"x", fr.x0}, {"y", fr.y0}, {"side", fr.side}}},
                   {"object_box", {fr.object_box.x, fr.object_box.y, fr.object_box.w, fr.object_box.h}},
                   {"extent", fr.extent},

@@ -20,6 +20,10 @@ struct ReconOutputPaths {
   std::vector<std::string> views;  ///< a multi-view reconstruction's images (Reconstructor::run_views), in order
 };
 
+/// The segmenter's window scan (recon/framing.h SegmenterScan): {"candidates", "chosen", "agreement"}, or null when
+/// no scan ran.
+Json segmenter_scan_json(const SegmenterScan& scan);
+
 /// The record of `result`, what Reconstructor::run returned for an image of image_width x image_height with
 /// `settings` (for run_views: the first image's size; the record adds "views", one camera record per image). The
 /// refinement's initial camera is given as a camera of the input image (camera_in_input).

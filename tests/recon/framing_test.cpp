@@ -422,3 +422,23 @@ TEST_CASE("framing: GrabCut seeded by colour finds an object whose colour the ba
   const Image none = grabcut_mask(plain, PixelBox{5, 5, 90, 70}, 400, 5, GrabCutSeed::kColour);
   CHECK(*std::max_element(none.data.begin(), none.data.end()) == 0.f);
 }
+
+TEST_CASE("mask_iou: overlapping rectangles in alpha and grey masks, closed form") {
+  // a: columns 2-9, rows 1-4 (32 px) as an RGBA mask's alpha; b: columns 6-13, rows 3-6 (32 px) as a grey mask.
+  Image a(16, 8, 4, 0.0f), b(16, 8, 1, 0.0f);
+  for (int y = 1; y <= 4; ++y)
+    for (int x = 2; x <= 9; ++x) {
+      a.at(x, y, 0) = 1.0f;  // colour does not count, the alpha does
+      a.at(x, y, 3) = 0.9f;
+    }
+  for (int y = 3; y <= 6; ++y)
+    for (int x = 6; x <= 13; ++x) b.at(x, y) = 0.6f;
+  // Intersection: columns 6-9, rows 3-4 = 8 px; union 32 + 32 - 8 = 56.
+  CHECK(mask_iou(a, b) == doctest::Approx(8.0 / 56.0));
+  CHECK(mask_iou(b, a) == doctest::Approx(8.0 / 56.0));
+  CHECK(mask_iou(a, a) == 1.0);
+  b.at(7, 3) = 0.5f;  // not over 0.5: background
+  CHECK(mask_iou(a, b) == doctest::Approx(7.0 / 56.0));
+  CHECK(mask_iou(Image(4, 4, 1, 0.0f), Image(4, 4, 1, 0.0f)) == 1.0);  // no object in either: they agree
+  CHECK_THROWS_AS(mask_iou(a, Image(8, 8, 1, 0.0f)), InvalidInput);
+}

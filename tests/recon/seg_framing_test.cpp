@@ -264,3 +264,78 @@ TEST_CASE("recon --segment net: the model is loaded from --seg-model, a missing 
   CHECK(zoom_far.code != 0);
   CHECK(zoom_far.err.find("--seg-zoom") != std::string::npos);
 }
+
+namespace {
+
+/// A 320 x 224 grey photo with a small red square (the object: 20 x 20 px at 150-169, 40-59) and a large blue
+/// region (the salient part of the photo: 0-79, 150-223).
+Image small_object_photo() {
+  Image img(320, 224, 3, 0.5f);
+  for (int y = 40; y < 60; ++y)
+    for (int x = 150; x < 170; ++x) img.at(x, y, 0) = 0.9f, img.at(x, y, 1) = img.at(x, y, 2) = 0.1f;
+  for (int y = 150; y < 224; ++y)
+    for (int x = 0; x < 80; ++x) img.at(x, y, 0) = img.at(x, y, 1) = 0.1f, img.at(x, y, 2) = 0.9f;
+  return img;
+}
+
+/// A stand-in for a network whose resolution loses small objects: it answers the red pixels when they cover at
+/// least 1% of what it reads, else the blue ones (every reading finds "an object", as the trained network does).
+Image red_unless_small(const Image& rgb) {
+  long red = 0;
+  for (int y = 0; y < rgb.height; ++y)
+    for (int x = 0; x < rgb.width; ++x) red += rgb.at(x, y, 0) > 0.8f;
+  const bool see_red = red >= 0.01 * rgb.width * rgb.height;
+  Image p(rgb.width, rgb.height, 1, 0.05f);
+  for (int y = 0; y < rgb.height; ++y)
+    for (int x = 0; x < rgb.width; ++x)
+      if (see_red ? rgb.at(x, y, 0) > 0.8f : rgb.at(x, y, 2) > 0.8f) p.at(x, y) = 0.95f;
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("recon framing: the segmenter's window scan finds a small object the whole image's reading misses") {
+  const Image photo = small_object_photo();
+  const auto on_red = [](const Image& p) {  // the mask's IoU with the red square
+    long inter = 0, uni = 0;
+    for (int y = 0; y < 224; ++y)
+      for (int x = 0; x < 320; ++x) {
+        const bool a = p.at(x, y) > 0.5f, b = x >= 150 && x < 170 && y >= 40 && y < 60;
+        inter += a && b;
+        uni += a || b;
+      }
+    return static_cast<double>(inter) / static_cast<double>(uni);
+  };
+  // The whole image: the red square is 0.56% of it, so the blue region is taken; zooming in on the blue region
+  // keeps it.
+  int zooms = -1;
+  SegmenterScan scan;
+  const Image whole = zoomed_foreground(red_unless_small, photo, 2, 0.7, "photo.png", &zooms, false, &scan);
+  CHECK(on_red(whole) == 0.0);
+  CHECK(whole.at(40, 200) > 0.5f);
+  CHECK(scan.candidates == 0);
+  // The scan: windows of 192 px (3 x 2 of them), every one of which shows the red square at 1.1% and finds it;
+  // those six answers agree, the whole image's blue answer agrees with none: the chosen window's mean IoU with the
+  // other six candidates is 5/6.
+  const Image scanned = zoomed_foreground(red_unless_small, photo, 2, 0.7, "photo.png", &zooms, true, &scan);
+  CHECK(scan.candidates == 7);
+  CHECK(scan.chosen == 1);  // the first window; the others tie with it
+  CHECK(scan.agreement == doctest::Approx(5.0 / 6.0));
+  CHECK(on_red(scanned) == doctest::Approx(1.0));
+  CHECK(zooms >= 1);
+  // No zoom rounds: no scan (the scan zooms in on each window's answer).
+  CHECK(zoomed_foreground(red_unless_small, photo, 0, 0.7, "photo.png", &zooms, true, &scan).data ==
+        red_unless_small(photo).data);
+  CHECK(scan.candidates == 0);
+  // frame_input scans by default and reports it; segmenter_scan = false keeps the whole image's reading.
+  FramingSettings st;
+  st.segment = Segmentation::kNet;
+  st.segmenter = red_unless_small;
+  const FramedInput f = frame_input(photo, nullptr, st, "photo.png");
+  CHECK(f.segmenter_scan.candidates == 7);
+  CHECK(on_red(f.mask) == doctest::Approx(1.0));
+  st.segmenter_scan = false;
+  const FramedInput g = frame_input(photo, nullptr, st, "photo.png");
+  CHECK(g.segmenter_scan.candidates == 0);
+  CHECK(on_red(g.mask) == 0.0);
+}
