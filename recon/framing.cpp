@@ -510,7 +510,12 @@ Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter,
   };
   Zoomed whole = zoom(read(rgb));
   if (scan != nullptr) *scan = {};
-  if (!windows || rounds == 0) {
+  long marked = 0;
+  for (const float v : whole.p.data) marked += v > 0.5f;
+  // An answer covering nearly the whole image (frame_input refuses it: no object stands out) is kept as it is:
+  // windows of such an image would each find a window-sized "object" and agree on one.
+  const bool stands_out = static_cast<double>(marked) <= kMaxObjectCover * static_cast<double>(W) * H;
+  if (!windows || rounds == 0 || !stands_out) {
     if (zooms != nullptr) *zooms = whole.zooms;
     return whole.p;
   }
@@ -661,7 +666,7 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
     throw InvalidInput(what + ": the object is too small (" + std::to_string(ob.w) + "x" + std::to_string(ob.h) +
                        " px; at least " + std::to_string(st.min_object_px) + " px on its longer side)");
   const double cover = static_cast<double>(count) / (static_cast<double>(W) * H);
-  if (clean && cover > 0.9)
+  if (clean && cover > kMaxObjectCover)
     throw InvalidInput(what + ": no object stands out from the background (the " + f.mask_source +
                        " mask covers " + fmt(100 * cover, 0) + "% of the image); give --mask or --box");
   if (f.mask_source == "grabcut" && colour_overlap(rgb, f.mask) > st.max_colour_overlap)

@@ -132,7 +132,8 @@ struct FramedInput {
 /// zoomed in on like the whole image's; of these candidates (the whole image's first) the one whose object
 /// (p > 0.5) has the highest mean IoU with the other candidates' is returned (ties: the earlier). A small object the
 /// whole image's reading misses for a salient part of the photo is found by the windows that show it larger, and
-/// agreed on. `scan` (may be null) receives the candidates' count, the choice and its agreement.
+/// agreed on. No scan when the whole image's answer covers more than kMaxObjectCover of it. `scan` (may be null)
+/// receives the candidates' count, the choice and its agreement.
 /// InvalidInput naming `what` when the segmenter answers with a map of another size.
 Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter, const Image& rgb, int rounds,
                         double fill, const std::string& what, int* zooms = nullptr, bool windows = false,
@@ -140,6 +141,9 @@ Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter,
 
 /// Side of zoomed_foreground's scan windows, as a share of the image's longer side.
 inline constexpr double kScanWindow = 0.6;
+/// A segmentation covering more than this share of the image is refused (no object stands out); zoomed_foreground
+/// does not scan an image whose whole reading covers more.
+inline constexpr double kMaxObjectCover = 0.9;
 
 /// Frame `image` (any size, 1-4 channels). `mask` (optional, the image's size; its alpha, else its luminance =
 /// object) replaces the alpha and any segmentation. `what` names the input in messages. Throws InvalidInput (one

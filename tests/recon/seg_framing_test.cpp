@@ -327,6 +327,11 @@ TEST_CASE("recon framing: the segmenter's window scan finds a small object the w
   CHECK(zoomed_foreground(red_unless_small, photo, 0, 0.7, "photo.png", &zooms, true, &scan).data ==
         red_unless_small(photo).data);
   CHECK(scan.candidates == 0);
+  // An answer covering the whole image is kept as it is (frame_input refuses it), not replaced by a window's.
+  const auto everything = [](const Image& rgb) { return Image(rgb.width, rgb.height, 1, 0.95f); };
+  CHECK(zoomed_foreground(everything, photo, 2, 0.7, "photo.png", &zooms, true, &scan).data ==
+        everything(photo).data);
+  CHECK(scan.candidates == 0);
   // frame_input scans by default and reports it; segmenter_scan = false keeps the whole image's reading.
   FramingSettings st;
   st.segment = Segmentation::kNet;
