@@ -11,15 +11,12 @@
 #include "recon/recon.h"
 #include "recon/recon_json.h"
 
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <tuple>
 #include <filesystem>
 #include <iostream>
-#include <map>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -104,8 +101,8 @@ int fuse_views(const Reconstructor& rec, const std::vector<std::string>& inputs,
 
 std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
-    std::string input, out, model, photo_model, pose_model, photo_pose_model, seg_model, cam = "est", mask, format = "obj", segment = "auto", seg_scan = "on",
-                framing = "auto", box;
+    std::string input, out, model, photo_model, pose_model, photo_pose_model, seg_model,
+        cam = "est", mask, format = "obj", segment = "auto", seg_scan = "on", framing = "auto", box;
     std::string pose_distances = "off", pose_tta = "mirror", pose_zoom_tta = zoom_list(kDefaultPoseZoomTta);
     ReconSettings s;
     bool json = false, no_preview = false;
@@ -305,15 +302,7 @@ std::function<int()> setup_recon(CLI::App& app) {
     o->s.preview = !o->no_preview;
     o->s.refine_joint = o->refine_mode == "joint";
     o->s.framing.segment = parse_segmentation(o->segment);
-    for (const char* f : {"--seg-model", "--seg-zoom", "--seg-scan"})
-      if (app.get_option(f)->count() > 0 &&
-          (o->s.framing.segment == Segmentation::kGrabCut || o->s.framing.segment == Segmentation::kNone))
-        throw InvalidInput(std::string(f) + " applies with --segment net or auto");
-    if (o->mask.empty() && (o->s.framing.segment == Segmentation::kNet ||
-                            (o->s.framing.segment == Segmentation::kAuto && !o->seg_model.empty() &&
-                             (app.get_option("--seg-model")->count() > 0 || fs::exists(o->seg_model))))) {
-      o->s.framing.segmenter = shared_segmenter(require_model_path(o->seg_model, "--seg-model"));
-    }
+    configure_segmenter(app, o->s.framing, o->seg_model, o->seg_scan, o->mask.empty());
     o->s.framing.reframe = parse_reframing(o->framing);
     o->s.pose_mirror_tta = o->pose_tta == "mirror";
     o->s.pose_zoom_tta = parse_zoom_list(o->pose_zoom_tta, "recon: --pose-zoom-tta");
@@ -321,7 +310,6 @@ std::function<int()> setup_recon(CLI::App& app) {
       std::tie(o->s.pose_distance_min, o->s.pose_distance_max) =
           parse_positive_range(o->pose_distances, "recon: --pose-distances");
     if (!o->box.empty()) o->s.framing.box = parse_pixel_box(o->box);
-    o->s.framing.segmenter_scan = seg_scan_setting(app, o->seg_scan, o->s.framing.segmenter_zoom_rounds);
     if (o->refine && o->s.refine_rounds == 0) o->s.refine_rounds = 1;
     const bool estimate = o->cam == "est";
     check_flags_apply(app, estimate, o->s.refine_rounds > 0, o->s.refine.local_search, o->s.dense, !o->mask.empty());
@@ -355,89 +343,53 @@ std::function<int()> setup_recon(CLI::App& app) {
 
     if (o->fuse) return fuse_views(*rec, inputs, o->cam == "sidecar", o->s, o->out, o->json);
 
-    // Output paths, fixed before any work: two inputs with one stem (a.png and a.jpg in a folder, or the same
-    // name in two listed folders) would write the same mesh; the later input fails as an item instead.
-    std::vector<std::string> mesh_paths(inputs.size()), clash(inputs.size());
-    std::map<std::string, size_t> owner;
-    for (size_t i = 0; i < inputs.size(); ++i) {
-      mesh_paths[i] = !many ? o->out
-                            : (fs::path(o->out) / (fs::path(inputs[i]).stem().string() + "." + o->format)).string();
-      const auto [it, fresh] = owner.emplace(fs::path(mesh_paths[i]).lexically_normal().string(), i);
-      if (!fresh)
-        clash[i] = inputs[i] + ": its output " + mesh_paths[i] + " is also the output of " + inputs[it->second] +
-                   " (same file name stem); not reconstructed";
-    }
-
-    std::vector<Json> results(inputs.size());
-    std::vector<int> failed(inputs.size(), 0);
-    ProgressBar bar("recon", static_cast<long>(inputs.size()));
-    auto one = [&](size_t i) {
-      const std::string& in = inputs[i];
-      Json j = {{"input", in}};
-      try {
-        if (!clash[i].empty()) throw InvalidInput(clash[i]);
-        const std::string stem = fs::path(in).stem().string();
-        const std::string& mesh_path = mesh_paths[i];
-        const ReconOutputPaths paths = recon_output_paths(in, mesh_path);
-        Image img = read_image(in);
-        // --occlude: the removed pixels (transparent in img) are the missing data.
-        Image occluded;
-        if (o->occlude != "none") {
-          if (img.channels != 2 && img.channels != 4)
-            throw InvalidInput(in + ": --occlude needs an image with an alpha channel (a render); give --missing for "
-                                    "other images");
-          const uint64_t h = fnv1a(stem.data(), stem.size()) ^ Rng::mix(o->occlude_seed);
-          OcclusionSettings os;
-          os.mode = o->occlude == "half" ? (Rng(h).uniform() < 0.5 ? OcclusionMode::kLeft : OcclusionMode::kRight)
-                                         : parse_occlusion_mode(o->occlude);
-          occluded = apply_occlusion(img, os, h);
-        }
-        const Image* missing_ptr = !occluded.empty() ? &occluded : (!o->missing.empty() ? &missing : nullptr);
-        Camera cam;
-        const Camera* cam_ptr = nullptr;
-        if (sidecar) {
-          cam = read_camera(sidecar_camera_path(in));
-          cam_ptr = &cam;
-        } else if (!estimate) {
-          cam_ptr = &fixed_camera;
-        }
-        const ReconResult r = rec->run(img, o->mask.empty() ? nullptr : &mask, cam_ptr, o->s, in, missing_ptr);
-        for (const std::string& w : r.framing.warnings) bar.print_line(stderr, "sdfkit: warning: " + in + ": " + w);
-        write_recon_outputs(r, paths, o->s.preview);
-        j = recon_result_json(r, o->s, paths, img.width, img.height);
-        if (!o->json) {
-          std::ostringstream line;
-          line << in << " -> " << mesh_path << " (" << r.mesh.num_faces() << " faces, " << r.evaluations
-               << " evaluations, " << r.timings.total << " s" << (o->s.preview ? ", preview " + paths.preview : "")
-               << ")";
-          bar.print_line(stdout, line.str());
-        }
-      } catch (const std::exception& e) {
-        failed[i] = 1;
-        std::string msg = e.what();  // one line: library messages may carry several (e.g. image decoders)
-        for (char& c : msg)
-          if (c == '\n' || c == '\r') c = ' ';
-        j["error"] = msg;
-        bar.print_line(stderr, "sdfkit: error: " + msg);
-      }
-      results[i] = std::move(j);
-      bar.tick();
-    };
-    if (o->jobs <= 1) {
-      for (size_t i = 0; i < inputs.size(); ++i) one(i);
-    } else {
-      tbb::task_arena arena(o->jobs);
-      arena.execute([&] { tbb::parallel_for(size_t(0), inputs.size(), one); });
-    }
-    bar.finish();
-    if (o->json) {
-      Json all = Json::array();
-      for (auto& r : results) all.push_back(std::move(r));
-      std::cout << (inputs.size() == 1 ? all[0].dump(2) : all.dump(2)) << '\n';
-    }
-    const long nfail = std::count(failed.begin(), failed.end(), 1);
-    if (nfail == 0) return int(kOk);
-    return nfail == static_cast<long>(inputs.size()) && inputs.size() == 1 ? int(kUserError) : int(kPartialFailure);
+    const BatchOutputs outs = batch_outputs(inputs, many, o->out, "." + o->format, "reconstructed");
+    long nfail = 0;
+    const std::vector<Json> results = run_batch(
+        "recon", inputs, outs.clash, o->jobs,
+        [&](size_t i, Json& j, ProgressBar& bar) {
+          const std::string& in = inputs[i];
+          const std::string stem = fs::path(in).stem().string();
+          const std::string& mesh_path = outs.paths[i];
+          const ReconOutputPaths paths = recon_output_paths(in, mesh_path);
+          Image img = read_image(in);
+          // --occlude: the removed pixels (transparent in img) are the missing data.
+          Image occluded;
+          if (o->occlude != "none") {
+            if (img.channels != 2 && img.channels != 4)
+              throw InvalidInput(in +
+                                 ": --occlude needs an image with an alpha channel (a render); give --missing for "
+                                 "other images");
+            const uint64_t h = fnv1a(stem.data(), stem.size()) ^ Rng::mix(o->occlude_seed);
+            OcclusionSettings os;
+            os.mode = o->occlude == "half" ? (Rng(h).uniform() < 0.5 ? OcclusionMode::kLeft : OcclusionMode::kRight)
+                                           : parse_occlusion_mode(o->occlude);
+            occluded = apply_occlusion(img, os, h);
+          }
+          const Image* missing_ptr = !occluded.empty() ? &occluded : (!o->missing.empty() ? &missing : nullptr);
+          Camera cam;
+          const Camera* cam_ptr = nullptr;
+          if (sidecar) {
+            cam = read_camera(sidecar_camera_path(in));
+            cam_ptr = &cam;
+          } else if (!estimate) {
+            cam_ptr = &fixed_camera;
+          }
+          const ReconResult r = rec->run(img, o->mask.empty() ? nullptr : &mask, cam_ptr, o->s, in, missing_ptr);
+          for (const std::string& w : r.framing.warnings) bar.print_line(stderr, "sdfkit: warning: " + in + ": " + w);
+          write_recon_outputs(r, paths, o->s.preview);
+          j = recon_result_json(r, o->s, paths, img.width, img.height);
+          if (!o->json) {
+            std::ostringstream line;
+            line << in << " -> " << mesh_path << " (" << r.mesh.num_faces() << " faces, " << r.evaluations
+                 << " evaluations, " << r.timings.total << " s" << (o->s.preview ? ", preview " + paths.preview : "")
+                 << ")";
+            bar.print_line(stdout, line.str());
+          }
+        },
+        &nfail);
+    if (o->json) std::cout << (inputs.size() == 1 ? results[0].dump(2) : Json(results).dump(2)) << '\n';
+    return batch_exit_code(nfail, inputs.size());
   };
 }
 

@@ -7,14 +7,10 @@
 #include "recon/framing.h"
 #include "recon/recon_json.h"
 
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-#include <map>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -101,95 +97,57 @@ std::function<int()> setup_segment(CLI::App& app) {
     if (!o->truth.empty() && many && !fs::is_directory(o->truth))
       throw InvalidInput("--truth " + o->truth + ": give a folder of reference masks for several images");
     o->framing.segment = parse_segmentation(o->segment);
-    for (const char* f : {"--seg-model", "--seg-zoom", "--seg-scan"})
-      if (app.get_option(f)->count() > 0 &&
-          (o->framing.segment == Segmentation::kGrabCut || o->framing.segment == Segmentation::kNone))
-        throw InvalidInput(std::string(f) + " applies with --segment net or auto");
     if (!o->box.empty()) o->framing.box = parse_pixel_box(o->box);
-    o->framing.segmenter_scan = seg_scan_setting(app, o->seg_scan, o->framing.segmenter_zoom_rounds);
-    if (o->framing.segment == Segmentation::kNet ||
-        (o->framing.segment == Segmentation::kAuto && !o->seg_model.empty() &&
-         (app.get_option("--seg-model")->count() > 0 || fs::exists(o->seg_model))))
-      o->framing.segmenter = shared_segmenter(require_model_path(o->seg_model, "--seg-model"));
+    configure_segmenter(app, o->framing, o->seg_model, o->seg_scan, true);
 
-    std::vector<std::string> mask_paths(inputs.size()), clash(inputs.size());
-    std::map<std::string, size_t> owner;
-    for (size_t i = 0; i < inputs.size(); ++i) {
-      mask_paths[i] = !many ? o->out : (fs::path(o->out) / (fs::path(inputs[i]).stem().string() + ".mask.png")).string();
-      const auto [it, fresh] = owner.emplace(fs::path(mask_paths[i]).lexically_normal().string(), i);
-      if (!fresh)
-        clash[i] = inputs[i] + ": its output " + mask_paths[i] + " is also the output of " + inputs[it->second] +
-                   " (same file name stem); not segmented";
-    }
+    const BatchOutputs outs = batch_outputs(inputs, many, o->out, ".mask.png", "segmented");
+    long nfail = 0;
+    std::vector<Json> results = run_batch(
+        "segment", inputs, outs.clash, o->jobs,
+        [&](size_t i, Json& j, ProgressBar& bar) {
+          const std::string& in = inputs[i];
+          const Image img = read_image(in);
+          Image truth;
+          std::string truth_file;
+          if (!o->truth.empty()) {
+            truth_file = truth_path(o->truth, in);
+            truth = read_image(truth_file);
+            if (truth.width != img.width || truth.height != img.height)
+              throw InvalidInput(truth_file + ": reference mask is " + std::to_string(truth.width) + "x" +
+                                 std::to_string(truth.height) + " but " + in + " is " + std::to_string(img.width) +
+                                 "x" + std::to_string(img.height));
+            j["truth"] = truth_file;
+          }
+          FramedInput f;
+          try {
+            f = frame_input(img, nullptr, o->framing, in);
+          } catch (const InvalidInput&) {
+            if (!o->truth.empty()) j["iou"] = 0.0;  // scored as a miss, reported as a failure
+            throw;
+          }
+          write_image(outs.paths[i], f.mask);
+          const PixelBox& b = f.object_box;
+          j["mask"] = outs.paths[i];
+          j["mask_source"] = f.mask_source;
+          j["object_box"] = {b.x, b.y, b.w, b.h};
+          j["segmenter_zooms"] = f.segmenter_zooms;
+          j["segmenter_scan"] = segmenter_scan_json(f.segmenter_scan);
+          j["warnings"] = f.warnings;
+          std::ostringstream line;
+          line << in << " -> " << outs.paths[i] << " (" << f.mask_source << ", object " << b.w << "x" << b.h << " px";
+          if (!o->truth.empty()) {
+            const double iou = mask_iou(f.mask, truth);
+            j["iou"] = iou;
+            char text[32];
+            std::snprintf(text, sizeof text, "%.3f", iou);
+            line << ", mask IoU " << text;
+          }
+          line << ")";
+          for (const std::string& w : f.warnings) bar.print_line(stderr, "sdfkit: warning: " + in + ": " + w);
+          if (!o->json) bar.print_line(stdout, line.str());
+        },
+        &nfail);
 
-    std::vector<Json> results(inputs.size());
-    std::vector<double> ious(inputs.size(), 0.0);
-    std::vector<int> failed(inputs.size(), 0);
-    ProgressBar bar("segment", static_cast<long>(inputs.size()));
-    auto one = [&](size_t i) {
-      const std::string& in = inputs[i];
-      Json j = {{"input", in}};
-      try {
-        if (!clash[i].empty()) throw InvalidInput(clash[i]);
-        const Image img = read_image(in);
-        Image truth;
-        std::string truth_file;
-        if (!o->truth.empty()) {
-          truth_file = truth_path(o->truth, in);
-          truth = read_image(truth_file);
-          if (truth.width != img.width || truth.height != img.height)
-            throw InvalidInput(truth_file + ": reference mask is " + std::to_string(truth.width) + "x" +
-                               std::to_string(truth.height) + " but " + in + " is " + std::to_string(img.width) +
-                               "x" + std::to_string(img.height));
-          j["truth"] = truth_file;
-        }
-        FramedInput f;
-        try {
-          f = frame_input(img, nullptr, o->framing, in);
-        } catch (const InvalidInput&) {
-          if (!o->truth.empty()) j["iou"] = 0.0;  // scored as a miss, reported as a failure
-          throw;
-        }
-        write_image(mask_paths[i], f.mask);
-        const PixelBox& b = f.object_box;
-        j["mask"] = mask_paths[i];
-        j["mask_source"] = f.mask_source;
-        j["object_box"] = {b.x, b.y, b.w, b.h};
-        j["segmenter_zooms"] = f.segmenter_zooms;
-        j["segmenter_scan"] = segmenter_scan_json(f.segmenter_scan);
-        j["warnings"] = f.warnings;
-        std::ostringstream line;
-        line << in << " -> " << mask_paths[i] << " (" << f.mask_source << ", object " << b.w << "x" << b.h << " px";
-        if (!o->truth.empty()) {
-          ious[i] = mask_iou(f.mask, truth);
-          j["iou"] = ious[i];
-          char text[32];
-          std::snprintf(text, sizeof text, "%.3f", ious[i]);
-          line << ", mask IoU " << text;
-        }
-        line << ")";
-        for (const std::string& w : f.warnings) bar.print_line(stderr, "sdfkit: warning: " + in + ": " + w);
-        if (!o->json) bar.print_line(stdout, line.str());
-      } catch (const std::exception& e) {
-        failed[i] = 1;
-        std::string msg = e.what();
-        for (char& c : msg)
-          if (c == '\n' || c == '\r') c = ' ';
-        j["error"] = msg;
-        bar.print_line(stderr, "sdfkit: error: " + msg);
-      }
-      results[i] = std::move(j);
-      bar.tick();
-    };
-    if (o->jobs <= 1) {
-      for (size_t i = 0; i < inputs.size(); ++i) one(i);
-    } else {
-      tbb::task_arena arena(o->jobs);
-      arena.execute([&] { tbb::parallel_for(size_t(0), inputs.size(), one); });
-    }
-    bar.finish();
-
-    const long nfail = std::count(failed.begin(), failed.end(), 1);
     Json summary = {{"images", inputs.size()}, {"failed", nfail}};
     std::vector<double> scored;
     if (!o->truth.empty()) {
@@ -205,20 +163,18 @@ std::function<int()> setup_segment(CLI::App& app) {
       summary["below_half"] = below;
     }
     if (o->json) {
-      Json all = Json::array();
-      for (auto& r : results) all.push_back(std::move(r));
-      std::cout << Json{{"images", std::move(all)}, {"summary", summary}}.dump(2) << '\n';
+      std::cout << Json{{"images", std::move(results)}, {"summary", summary}}.dump(2) << '\n';
     } else if (!o->truth.empty()) {
       std::printf("%zu images: mean mask IoU %.4f, median %.4f, %ld below 0.5 (%zu scored; %ld failed)\n",
                   inputs.size(), summary["mean_iou"].get<double>(), summary["median_iou"].get<double>(),
                   summary["below_half"].get<long>(), scored.size(), nfail);
     }
-    if (nfail == 0) return int(kOk);
-    return nfail == static_cast<long>(inputs.size()) && inputs.size() == 1 ? int(kUserError) : int(kPartialFailure);
+    return batch_exit_code(nfail, inputs.size());
   };
 }
 
-SDFKIT_REGISTER_COMMAND("segment", "write the object mask recon would use (segmentation only), and score it with --truth",
+SDFKIT_REGISTER_COMMAND("segment",
+                        "write the object mask recon would use (segmentation only), and score it with --truth",
                         setup_segment);
 
 }  // namespace

@@ -3,6 +3,8 @@
 #pragma once
 
 #include "camera/image.h"
+#include "core/json.h"
+#include "recon/framing.h"
 
 #include <CLI/CLI.hpp>
 
@@ -75,6 +77,34 @@ std::function<sdfkit::Image(const sdfkit::Image& rgb)> shared_segmenter(const st
 /// InvalidInput (the scan zooms in on each window's answer).
 extern const char* const kSegScanHelp;
 bool seg_scan_setting(const CLI::App& app, const std::string& value, int zoom_rounds);
+
+/// recon's and segment's segmenter flags: --seg-model, --seg-zoom and --seg-scan are errors with --segment grabcut or
+/// none; sets framing.segmenter_scan (seg_scan_setting) and, when `load` (recon: no --mask) and the segmentation reads
+/// the network (net, or auto with its model named or present), framing.segmenter (shared_segmenter).
+void configure_segmenter(const CLI::App& app, FramingSettings& framing, const std::string& seg_model,
+                         const std::string& seg_scan, bool load);
+
+class ProgressBar;
+
+/// The output files of a batch: `out` itself for one image (many = false), else out/<input's stem><suffix>. Fixed
+/// before any work: two inputs with one stem (a.png and a.jpg in a folder, or one name in two listed folders) would
+/// write the same file, so the later one gets a clash message ("...; not <verb>") and fails as an item.
+struct BatchOutputs {
+  std::vector<std::string> paths, clash;  ///< per input; clash empty when the path is its own
+};
+BatchOutputs batch_outputs(const std::vector<std::string>& inputs, bool many, const std::string& out,
+                           const std::string& suffix, const std::string& verb);
+
+/// Runs item(i, record, bar) for every input (`jobs` at a time) under a progress bar labelled `label`. The record
+/// starts as {"input": inputs[i]}; an input with a clash, or whose item throws, gets "error" (the message on one
+/// line, also printed as "sdfkit: error: ..."), and counts in *failed. Returns the records in input order.
+std::vector<Json> run_batch(const std::string& label, const std::vector<std::string>& inputs,
+                            const std::vector<std::string>& clash, int jobs,
+                            const std::function<void(size_t i, Json& record, ProgressBar& bar)>& item, long* failed);
+
+/// The exit code of a batch of `items` with `failed` failures: kOk, kUserError when its only item failed, else
+/// kPartialFailure.
+int batch_exit_code(long failed, size_t items);
 
 /// True when stderr is a terminal (progress bars are drawn only then).
 bool stderr_is_tty();

@@ -4,8 +4,12 @@
 #include "core/files.h"
 #include "nets/seg_net.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -80,6 +84,73 @@ std::function<Image(const Image& rgb)> shared_segmenter(const std::string& model
     const std::lock_guard<std::mutex> guard(*lock);
     return predict_foreground(*net, rgb);
   };
+}
+
+void configure_segmenter(const CLI::App& app, FramingSettings& framing, const std::string& seg_model,
+                         const std::string& seg_scan, bool load) {
+  for (const char* f : {"--seg-model", "--seg-zoom", "--seg-scan"})
+    if (app.get_option(f)->count() > 0 &&
+        (framing.segment == Segmentation::kGrabCut || framing.segment == Segmentation::kNone))
+      throw InvalidInput(std::string(f) + " applies with --segment net or auto");
+  framing.segmenter_scan = seg_scan_setting(app, seg_scan, framing.segmenter_zoom_rounds);
+  if (load && (framing.segment == Segmentation::kNet ||
+               (framing.segment == Segmentation::kAuto && !seg_model.empty() &&
+                (app.get_option("--seg-model")->count() > 0 || fs::exists(seg_model)))))
+    framing.segmenter = shared_segmenter(require_model_path(seg_model, "--seg-model"));
+}
+
+BatchOutputs batch_outputs(const std::vector<std::string>& inputs, bool many, const std::string& out,
+                           const std::string& suffix, const std::string& verb) {
+  BatchOutputs b;
+  b.paths.resize(inputs.size());
+  b.clash.resize(inputs.size());
+  std::map<std::string, size_t> owner;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    b.paths[i] = !many ? out : (fs::path(out) / (fs::path(inputs[i]).stem().string() + suffix)).string();
+    const auto [it, fresh] = owner.emplace(fs::path(b.paths[i]).lexically_normal().string(), i);
+    if (!fresh)
+      b.clash[i] = inputs[i] + ": its output " + b.paths[i] + " is also the output of " + inputs[it->second] +
+                   " (same file name stem); not " + verb;
+  }
+  return b;
+}
+
+std::vector<Json> run_batch(const std::string& label, const std::vector<std::string>& inputs,
+                            const std::vector<std::string>& clash, int jobs,
+                            const std::function<void(size_t i, Json& record, ProgressBar& bar)>& item, long* failed) {
+  std::vector<Json> results(inputs.size());
+  std::vector<int> bad(inputs.size(), 0);
+  ProgressBar bar(label, static_cast<long>(inputs.size()));
+  auto one = [&](size_t i) {
+    Json j = {{"input", inputs[i]}};
+    try {
+      if (!clash[i].empty()) throw InvalidInput(clash[i]);
+      item(i, j, bar);
+    } catch (const std::exception& e) {
+      bad[i] = 1;
+      std::string msg = e.what();  // one line: library messages may carry several (e.g. image decoders)
+      for (char& c : msg)
+        if (c == '\n' || c == '\r') c = ' ';
+      j["error"] = msg;
+      bar.print_line(stderr, "sdfkit: error: " + msg);
+    }
+    results[i] = std::move(j);
+    bar.tick();
+  };
+  if (jobs <= 1) {
+    for (size_t i = 0; i < inputs.size(); ++i) one(i);
+  } else {
+    tbb::task_arena arena(jobs);
+    arena.execute([&] { tbb::parallel_for(size_t(0), inputs.size(), one); });
+  }
+  bar.finish();
+  *failed = std::count(bad.begin(), bad.end(), 1);
+  return results;
+}
+
+int batch_exit_code(long failed, size_t items) {
+  if (failed == 0) return int(kOk);
+  return failed == static_cast<long>(items) && items == 1 ? int(kUserError) : int(kPartialFailure);
 }
 
 }  // namespace sdfkit::app
