@@ -58,6 +58,11 @@ std::function<int()> setup_train_pose(CLI::App& app) {
   app.add_option("--width", s.net.width, "channels of the first convolution (later: 2x, 4x, 8x)")
       ->capture_default_str()
       ->check(positive());
+  app.add_option("--extra-convs", s.net.extra_convs,
+                 "conv 3x3/1 layers added after the second and after the third convolution each (0 = the "
+                 "6-convolution encoder; 1 costs about 1.7 times the compute at width 32)")
+      ->capture_default_str()
+      ->check(in_range(0, 2));
   app.add_option("--feature", s.net.feature, "size of the shared feature the heads read")
       ->capture_default_str()
       ->check(positive());

@@ -18,6 +18,7 @@ Json PoseNetSettings::to_json() const {
             {"feature", feature},
             {"distance_min", distance_min},
             {"distance_max", distance_max}};
+  if (extra_convs > 0) j["extra_convs"] = extra_convs;     // absent in the 6-convolution encoder's models
   if (azimuth_bins > 0) j["azimuth_bins"] = azimuth_bins;  // absent in models without the head
   if (centre_head) j["centre_head"] = true;                 // same
   return j;
@@ -31,6 +32,7 @@ PoseNetSettings PoseNetSettings::from_json(const Json& j) {
     s.feature = j.at("feature").get<int>();
     s.distance_min = j.at("distance_min").get<double>();
     s.distance_max = j.at("distance_max").get<double>();
+    s.extra_convs = j.value("extra_convs", 0);
     s.azimuth_bins = j.value("azimuth_bins", 0);
     s.centre_head = j.value("centre_head", false);
   } catch (const Json::exception& e) {
@@ -54,10 +56,13 @@ PoseNet::PoseNet(const PoseNetSettings& settings, bool with_grads) : s_(settings
   require(s_.distance_min > 0 && s_.distance_max > s_.distance_min, "pose net: need 0 < distance_min < distance_max");
   require(s_.azimuth_bins == 0 || (s_.azimuth_bins >= 4 && s_.azimuth_bins <= 360),
           "pose net: azimuth bins must be 0 (no head) or 4..360");
+  require(s_.extra_convs >= 0 && s_.extra_convs <= 2, "pose net: extra convolutions must be 0, 1 or 2");
   const int w = s_.width;
   conv_block(trunk_, 3, w, 5, 2);
   conv_block(trunk_, w, 2 * w, 3, 2);
+  for (int k = 0; k < s_.extra_convs; ++k) conv_block(trunk_, 2 * w, 2 * w, 3, 1);
   conv_block(trunk_, 2 * w, 4 * w, 3, 2);
+  for (int k = 0; k < s_.extra_convs; ++k) conv_block(trunk_, 4 * w, 4 * w, 3, 1);
   conv_block(trunk_, 4 * w, 8 * w, 3, 2);
   conv_block(trunk_, 8 * w, 8 * w, 3, 1);
   conv_block(trunk_, 8 * w, 4 * w, 3, 2);
