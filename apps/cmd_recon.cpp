@@ -288,8 +288,8 @@ std::function<int()> setup_recon(CLI::App& app) {
     if (!many && !mesh_out)
       throw InvalidInput("-o " + o->out + ": give a mesh path ending in .obj, .ply, .off or .stl for one image");
     if (many && mesh_out && !o->fuse)
-      throw InvalidInput("-o " + o->out + ": " + o->input + " holds " + std::to_string(inputs.size()) +
-                         " images; give a folder for their meshes");
+      throw InvalidInput("-o " + o->out + ": " + o->input + " holds " + image_count(inputs.size()) +
+                         "; give a folder for their meshes");
     if (many && !o->fuse && fs::exists(o->out) && !fs::is_directory(o->out))
       throw InvalidInput("-o " + o->out + ": exists and is not a folder");
     if (!many && fs::is_directory(o->out)) throw InvalidInput("-o " + o->out + ": is a folder, not a mesh path");

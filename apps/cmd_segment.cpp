@@ -88,10 +88,10 @@ std::function<int()> setup_segment(CLI::App& app) {
       throw InvalidInput("-o " + o->out + ": give a .png path for the mask of one image");
     if (many && fs::exists(o->out) && !fs::is_directory(o->out))
       throw InvalidInput("-o " + o->out + ": exists and is not a folder (" + o->input + " holds " +
-                         std::to_string(inputs.size()) + " images)");
+                         image_count(inputs.size()) + ")");
     if (many && extension_of(o->out) == "png")
-      throw InvalidInput("-o " + o->out + ": " + o->input + " holds " + std::to_string(inputs.size()) +
-                         " images; give a folder for their masks");
+      throw InvalidInput("-o " + o->out + ": " + o->input + " holds " + image_count(inputs.size()) +
+                         "; give a folder for their masks");
     if (!o->box.empty() && many) throw InvalidInput("--box applies to a single input image");
     if (!o->truth.empty() && !fs::exists(o->truth)) throw IoError(o->truth + ": no such file or folder");
     if (!o->truth.empty() && many && !fs::is_directory(o->truth))

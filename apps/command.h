@@ -62,6 +62,9 @@ extern const std::vector<std::string> kMeshOutExtensions;
 /// True when `path` ends in one of kMeshOutExtensions (case-insensitive): a mesh file rather than a folder.
 bool is_mesh_out_path(const std::string& path);
 
+/// "1 image", "3 images": a count of input images in a message.
+std::string image_count(size_t n);
+
 /// True when `path` ends in an image extension the commands read (png, jpg, jpeg, exr, tif, tiff, bmp).
 bool is_image_path(const std::string& path);
 /// The images of an input argument: IMAGE, a folder of images (sorted, not recursive; *_mask.*, *.mask.* and
@@ -69,9 +72,9 @@ bool is_image_path(const std::string& path);
 /// lines and # comments skipped). IoError / InvalidInput naming `input` when it is missing or holds no image.
 std::vector<std::string> collect_inputs(const std::string& input);
 
-/// The segmenter network of `model_path` (nets/seg_net.h) as FramingSettings::segmenter: one network shared by
-/// every caller, which take turns (a forward of a 128 px image is milliseconds). IoError naming the file.
-std::function<sdfkit::Image(const sdfkit::Image& rgb)> shared_segmenter(const std::string& model_path);
+/// The segmenter network of `model_path` (nets/seg_net.h) as framing.segmenter and framing.segmenter_batch: one
+/// network shared by both and by every thread, each call holding a lock (the network keeps its activations).
+void use_shared_segmenter(sdfkit::FramingSettings& framing, const std::string& model_path);
 
 /// Help text of --seg-scan (recon, segment), and its setting: "on" / "off"; --seg-scan on with --seg-zoom 0 is an
 /// InvalidInput (the scan zooms in on each window's answer).
@@ -80,7 +83,8 @@ bool seg_scan_setting(const CLI::App& app, const std::string& value, int zoom_ro
 
 /// recon's and segment's segmenter flags: --seg-model, --seg-zoom and --seg-scan are errors with --segment grabcut or
 /// none; sets framing.segmenter_scan (seg_scan_setting) and, when `load` (recon: no --mask) and the segmentation reads
-/// the network (net, or auto with its model named or present), framing.segmenter (shared_segmenter).
+/// the network (net, or auto with its model named or present), framing.segmenter and segmenter_batch
+/// (use_shared_segmenter).
 void configure_segmenter(const CLI::App& app, FramingSettings& framing, const std::string& seg_model,
                          const std::string& seg_scan, bool load);
 

@@ -77,12 +77,18 @@ std::vector<std::string> collect_inputs(const std::string& input) {
   return {input};
 }
 
-std::function<Image(const Image& rgb)> shared_segmenter(const std::string& model_path) {
+std::string image_count(size_t n) { return std::to_string(n) + (n == 1 ? " image" : " images"); }
+
+void use_shared_segmenter(FramingSettings& framing, const std::string& model_path) {
   auto net = std::shared_ptr<SegNet>(load_seg_model(model_path));
   auto lock = std::make_shared<std::mutex>();
-  return [net, lock](const Image& rgb) {
+  framing.segmenter = [net, lock](const Image& rgb) {
     const std::lock_guard<std::mutex> guard(*lock);
     return predict_foreground(*net, rgb);
+  };
+  framing.segmenter_batch = [net, lock](const std::vector<Image>& rgbs) {
+    const std::lock_guard<std::mutex> guard(*lock);
+    return predict_foreground(*net, rgbs);
   };
 }
 
@@ -96,7 +102,7 @@ void configure_segmenter(const CLI::App& app, FramingSettings& framing, const st
   if (load && (framing.segment == Segmentation::kNet ||
                (framing.segment == Segmentation::kAuto && !seg_model.empty() &&
                 (app.get_option("--seg-model")->count() > 0 || fs::exists(seg_model)))))
-    framing.segmenter = shared_segmenter(require_model_path(seg_model, "--seg-model"));
+    use_shared_segmenter(framing, require_model_path(seg_model, "--seg-model"));
 }
 
 BatchOutputs batch_outputs(const std::vector<std::string>& inputs, bool many, const std::string& out,

@@ -315,17 +315,32 @@ void put_network_rgb(const Image& letterboxed, Tensor& x, int64_t n) {
       }
 }
 
-Image predict_foreground(SegNet& net, const Image& image) {
-  require(!image.empty(), "segmenter: empty image");
+std::vector<Image> predict_foreground(SegNet& net, const std::vector<Image>& images) {
+  require(!images.empty(), "segmenter: no image");
   const int S = net.config().size;
-  Letterbox g;
-  const Image lb = letterbox(image.channels == 3 ? image : to_rgb(image, 1.0f), S, &g);
-  Tensor x({1, 3, S, S});
-  put_network_rgb(lb, x, 0);
+  const int64_t B = static_cast<int64_t>(images.size());
+  std::vector<Letterbox> g(images.size());
+  Tensor x({B, 3, S, S});
+  for (int64_t n = 0; n < B; ++n) {
+    const Image& image = images[static_cast<size_t>(n)];
+    require(!image.empty(), "segmenter: empty image");
+    put_network_rgb(letterbox(image.channels == 3 ? image : to_rgb(image, 1.0f), S, &g[static_cast<size_t>(n)]), x, n);
+  }
   const Tensor& logits = net.forward(x, false);
-  Image prob(S, S, 1);
-  for (int64_t i = 0; i < logits.size(); ++i) prob.data[static_cast<size_t>(i)] = 1.0f / (1.0f + std::exp(-logits[i]));
-  return unletterbox(prob, g);
+  std::vector<Image> out;
+  out.reserve(images.size());
+  const int64_t SS = int64_t(S) * S;
+  for (int64_t n = 0; n < B; ++n) {
+    Image prob(S, S, 1);
+    const float* l = logits.ptr() + n * SS;
+    for (int64_t i = 0; i < SS; ++i) prob.data[static_cast<size_t>(i)] = 1.0f / (1.0f + std::exp(-l[i]));
+    out.push_back(unletterbox(prob, g[static_cast<size_t>(n)]));
+  }
+  return out;
+}
+
+Image predict_foreground(SegNet& net, const Image& image) {
+  return std::move(predict_foreground(net, std::vector<Image>{image}).front());
 }
 
 // ----------------------------------------------------------------------------------------------- model files

@@ -130,6 +130,9 @@ void put_network_rgb(const Image& letterboxed, Tensor& x, int64_t n);
 /// Foreground probability of every pixel of `image` (any size, 1-4 channels; alpha composited on white): the image
 /// letterboxed to the network's size, the sigmoid of the logits mapped back to the image's size. 1 channel.
 Image predict_foreground(SegNet& net, const Image& image);
+/// The same for several images in one forward pass (the batch's items run in parallel; each item's probabilities
+/// are those of predict_foreground up to float rounding in the context layer's product).
+std::vector<Image> predict_foreground(SegNet& net, const std::vector<Image>& images);
 
 /// Model files: a checkpoint with kind "seg_model", the architecture and the parameters (+ a training summary).
 void save_seg_model(const std::string& path, const SegNet& net, const Json& training = Json::object());

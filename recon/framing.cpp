@@ -465,75 +465,113 @@ double mask_iou(const Image& a, const Image& b) {
 }
 
 Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter, const Image& rgb, int rounds,
-                        double fill, const std::string& what, int* zooms, bool windows, SegmenterScan* scan) {
+                        double fill, const std::string& what, int* zooms, bool windows, SegmenterScan* scan,
+                        const std::function<std::vector<Image>(const std::vector<Image>& rgbs)>& batch) {
   require(static_cast<bool>(segmenter), "zoomed_foreground: no segmenter");
   require(rounds >= 0 && fill > 0 && fill <= 1, "zoomed_foreground: rounds >= 0 and fill in (0, 1] required");
   const int W = rgb.width, H = rgb.height;
-  const auto read = [&](const Image& im) {
-    Image p = segmenter(im);
-    if (p.width != im.width || p.height != im.height || p.channels != 1)
-      throw InvalidInput(what + ": the segmenter answered with a map of another size");
-    return p;
+  // The segmenter's answers for `ims`, one call when a batch reader is given.
+  const auto read = [&](const std::vector<Image>& ims) {
+    std::vector<Image> ps;
+    if (batch && ims.size() > 1) {
+      ps = batch(ims);
+      if (ps.size() != ims.size()) throw InvalidInput(what + ": the segmenter answered for another number of images");
+    } else {
+      for (const Image& im : ims) ps.push_back(segmenter(im));
+    }
+    for (size_t k = 0; k < ims.size(); ++k)
+      if (ps[k].width != ims[k].width || ps[k].height != ims[k].height || ps[k].channels != 1)
+        throw InvalidInput(what + ": the segmenter answered with a map of another size");
+    return ps;
   };
-  // The square [ox, ox + side)^2 of rgb (pixels outside repeat its edge), read, answered in a full-size map.
-  const auto read_square = [&](int ox, int oy, int side) {
-    Image square(side, side, rgb.channels);
-    for (int y = 0; y < side; ++y)
-      for (int x = 0; x < side; ++x) {
-        const int sx = std::clamp(ox + x, 0, W - 1), sy = std::clamp(oy + y, 0, H - 1);
+  // A square [ox, ox + side)^2 of rgb (pixels outside repeat its edge), and its answer placed in a full-size map.
+  struct Square {
+    int ox = 0, oy = 0, side = 0;
+  };
+  const auto cut = [&](const Square& q) {
+    Image square(q.side, q.side, rgb.channels);
+    for (int y = 0; y < q.side; ++y)
+      for (int x = 0; x < q.side; ++x) {
+        const int sx = std::clamp(q.ox + x, 0, W - 1), sy = std::clamp(q.oy + y, 0, H - 1);
         for (int c = 0; c < rgb.channels; ++c) square.at(x, y, c) = rgb.at(sx, sy, c);
       }
-    const Image q = read(square);
-    Image next(W, H, 1, 0.0f);
-    for (int y = std::max(0, oy); y < std::min(H, oy + side); ++y)
-      for (int x = std::max(0, ox); x < std::min(W, ox + side); ++x) next.at(x, y) = q.at(x - ox, y - oy);
-    return next;
+    return square;
+  };
+  const auto place = [&](const Image& answer, const Square& q) {
+    Image full(W, H, 1, 0.0f);
+    for (int y = std::max(0, q.oy); y < std::min(H, q.oy + q.side); ++y)
+      for (int x = std::max(0, q.ox); x < std::min(W, q.ox + q.side); ++x) full.at(x, y) = answer.at(x - q.ox, y - q.oy);
+    return full;
   };
   struct Zoomed {
     Image p;
     int zooms = 0;
   };
-  const auto zoom = [&](Image p) {
-    Zoomed z;
+  // Every candidate zoomed in on its own answer, the candidates' squares of a round read together: a candidate
+  // stops at the first round whose answer has no object or whose square would be no smaller than the image.
+  const auto zoom_all = [&](std::vector<Image> first) {
+    std::vector<Zoomed> z(first.size());
+    for (size_t k = 0; k < z.size(); ++k) z[k].p = std::move(first[k]);
+    std::vector<char> active(z.size(), 1);
     for (int round = 0; round < rounds; ++round) {
-      long count = 0;
-      const PixelBox b = hard_box(p, &count);
-      if (count == 0) break;
-      const int side = std::max(8, static_cast<int>(std::lround(std::max(b.w, b.h) / fill)));
-      if (side >= std::max(W, H)) break;
-      const int ox = (2 * b.x + b.w) / 2 - side / 2, oy = (2 * b.y + b.h) / 2 - side / 2;
-      p = read_square(ox, oy, side);
-      ++z.zooms;
+      std::vector<size_t> who;
+      std::vector<Square> squares;
+      std::vector<Image> ims;
+      for (size_t k = 0; k < z.size(); ++k) {
+        if (!active[k]) continue;
+        long count = 0;
+        const PixelBox b = hard_box(z[k].p, &count);
+        const int side = std::max(8, static_cast<int>(std::lround(std::max(b.w, b.h) / fill)));
+        if (count == 0 || side >= std::max(W, H)) {
+          active[k] = 0;
+          continue;
+        }
+        const Square q{(2 * b.x + b.w) / 2 - side / 2, (2 * b.y + b.h) / 2 - side / 2, side};
+        who.push_back(k);
+        squares.push_back(q);
+        ims.push_back(cut(q));
+      }
+      if (who.empty()) break;
+      const std::vector<Image> answers = read(ims);
+      for (size_t i = 0; i < who.size(); ++i) {
+        z[who[i]].p = place(answers[i], squares[i]);
+        ++z[who[i]].zooms;
+      }
     }
-    z.p = std::move(p);
     return z;
   };
-  Zoomed whole = zoom(read(rgb));
   if (scan != nullptr) *scan = {};
+  // The scan's windows: squares of 0.6 of the longer side, at most half a square apart along each axis, each read
+  // and zoomed in on as the whole image is. In the whole image's 128 px letterbox a small or thin object can go
+  // unseen while a salient part of the photo is taken for the object; a window shows it 1.7 times larger.
+  std::vector<Square> windows_at;
+  if (windows && rounds > 0) {
+    const int L = std::max(W, H), side = static_cast<int>(std::lround(kScanWindow * L));
+    const auto places = [side](int extent) {
+      std::vector<int> out;
+      if (extent <= side) return std::vector<int>{(extent - side) / 2};
+      const int n = 1 + static_cast<int>(std::ceil((extent - side) / (0.5 * side)));
+      for (int i = 0; i < n; ++i) out.push_back(static_cast<int>(std::lround(double(i) * (extent - side) / (n - 1))));
+      return out;
+    };
+    for (const int oy : places(H))
+      for (const int ox : places(W)) windows_at.push_back({ox, oy, side});
+  }
+  // The whole image and the windows, read and zoomed in on together.
+  std::vector<Image> firsts{rgb};
+  for (const Square& q : windows_at) firsts.push_back(cut(q));
+  std::vector<Image> answers = read(firsts);
+  for (size_t k = 0; k < windows_at.size(); ++k) answers[k + 1] = place(answers[k + 1], windows_at[k]);
+  std::vector<Zoomed> cands = zoom_all(std::move(answers));
   long marked = 0;
-  for (const float v : whole.p.data) marked += v > 0.5f;
+  for (const float v : cands[0].p.data) marked += v > 0.5f;
   // An answer covering nearly the whole image (frame_input refuses it: no object stands out) is kept as it is:
   // windows of such an image would each find a window-sized "object" and agree on one.
   const bool stands_out = static_cast<double>(marked) <= kMaxObjectCover * static_cast<double>(W) * H;
-  if (!windows || rounds == 0 || !stands_out) {
-    if (zooms != nullptr) *zooms = whole.zooms;
-    return whole.p;
+  if (windows_at.empty() || !stands_out) {
+    if (zooms != nullptr) *zooms = cands[0].zooms;
+    return std::move(cands[0].p);
   }
-  // The window scan: squares of 0.6 of the longer side, at most half a square apart along each axis, each read and
-  // zoomed in on as the whole image is. In the whole image's 128 px letterbox a small or thin object can go
-  // unseen while a salient part of the photo is taken for the object; a window shows it 1.7 times larger.
-  std::vector<Zoomed> cands;
-  cands.push_back(std::move(whole));
-  const int L = std::max(W, H), side = static_cast<int>(std::lround(kScanWindow * L));
-  const auto places = [side](int extent) {
-    std::vector<int> out;
-    if (extent <= side) return std::vector<int>{(extent - side) / 2};
-    const int n = 1 + static_cast<int>(std::ceil((extent - side) / (0.5 * side)));
-    for (int i = 0; i < n; ++i) out.push_back(static_cast<int>(std::lround(double(i) * (extent - side) / (n - 1))));
-    return out;
-  };
-  for (const int oy : places(H))
-    for (const int ox : places(W)) cands.push_back(zoom(read_square(ox, oy, side)));
   // Each candidate's final answer (p > 0.5) against every other's: the object is what most readings agree on,
   // a salient region of the photo is what one window's reading alone takes for it.
   const size_t n = cands.size();
@@ -608,7 +646,7 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
       require(st.segmenter_high > st.segmenter_low, "framing: the segmenter's ramp needs low < high");
       const Image p =
           zoomed_foreground(st.segmenter, rgb, st.segmenter_zoom_rounds, st.segmenter_zoom_fill, what, &f.segmenter_zooms,
-                            st.segmenter_scan, &f.segmenter_scan);
+                            st.segmenter_scan, &f.segmenter_scan, st.segmenter_batch);
       f.mask = Image(W, H, 1);
       const double span = st.segmenter_high - st.segmenter_low;
       for (size_t i = 0; i < p.data.size(); ++i) {

@@ -88,6 +88,10 @@ struct FramingSettings {
   /// of every pixel of an RGB image (1 channel, the image's size). Used by kNet, and by kAuto to seed GrabCut
   /// when set. Called from several threads at once when recon runs images in parallel. Empty = no network.
   std::function<Image(const Image& rgb)> segmenter;
+  /// Optional: the same network reading several images in one call (nets/seg_net.h's batch predict_foreground),
+  /// the answers in order, each as `segmenter` would give it. The window scan's readings go through it, round by
+  /// round (seven images at a time on a photo); empty = `segmenter` one image at a time.
+  std::function<std::vector<Image>(const std::vector<Image>& rgbs)> segmenter_batch;
   /// The network's probability p becomes the coverage clamp((p - lo) / (hi - lo), 0, 1): over 0.5 exactly where
   /// p > (lo + hi) / 2 = 0.7 (the object's pixels), soft edges kept between lo and hi. 0.7 rather than 0.5: on the
   /// validation composites of docs/results/framing.md the masks GrabCut makes from it match the objects better.
@@ -134,10 +138,13 @@ struct FramedInput {
 /// whole image's reading misses for a salient part of the photo is found by the windows that show it larger, and
 /// agreed on. No scan when the whole image's answer covers more than kMaxObjectCover of it. `scan` (may be null)
 /// receives the candidates' count, the choice and its agreement.
+/// `batch` (may be empty): reads several images at once, as `segmenter` reads each (FramingSettings::
+/// segmenter_batch); the candidates' readings of each round then go through one call.
 /// InvalidInput naming `what` when the segmenter answers with a map of another size.
 Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter, const Image& rgb, int rounds,
                         double fill, const std::string& what, int* zooms = nullptr, bool windows = false,
-                        SegmenterScan* scan = nullptr);
+                        SegmenterScan* scan = nullptr,
+                        const std::function<std::vector<Image>(const std::vector<Image>& rgbs)>& batch = {});
 
 /// Side of zoomed_foreground's scan windows, as a share of the image's longer side.
 inline constexpr double kScanWindow = 0.6;

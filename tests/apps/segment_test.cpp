@@ -135,7 +135,8 @@ TEST_CASE("segment: bad arguments are one-line errors") {
   fails("segment " + in + " -o " + (dir / "m.obj").string(), "give a .png path");
   fails("segment " + (dir / "in").string() + " -o " + (dir / "masks").string() + " --truth " + truth,
         "give a folder of reference masks");
-  fails("segment " + (dir / "in").string() + " -o " + (dir / "m.png").string(), "give a folder for their masks");
+  fails("segment " + (dir / "in").string() + " -o " + (dir / "m.png").string(),
+        "holds 1 image; give a folder for their masks");  // a folder of one image, counted in the singular
   fails("segment " + in + " -o " + (dir / "m.png").string() + " --segment grabcut --seg-zoom 1",
         "--seg-zoom applies with --segment net or auto");
   fails("segment " + in + " -o " + (dir / "m.png").string() + " --truth " + (dir / "nothing.png").string(),

@@ -166,6 +166,19 @@ TEST_CASE("SegNet model file: round trip gives the same probabilities, foreign o
   CHECK(a.channels == 1);
   CHECK(a.data == b.data);
   for (const float v : a.data) CHECK((v > 0 && v < 1));
+  // Several images of different sizes in one forward pass: each as read alone (up to float rounding).
+  Image wide(60, 20, 3), grey(25, 31, 1);
+  for (float& v : wide.data) v = static_cast<float>(rng.uniform());
+  for (float& v : grey.data) v = static_cast<float>(rng.uniform());
+  const std::vector<Image> together = predict_foreground(net, std::vector<Image>{photo, wide, grey});
+  REQUIRE(together.size() == 3);
+  for (const auto& [one, alone] : {std::pair{&together[0], a}, std::pair{&together[1], predict_foreground(net, wide)},
+                                  std::pair{&together[2], predict_foreground(net, grey)}}) {
+    REQUIRE(one->width == alone.width);
+    REQUIRE(one->height == alone.height);
+    for (size_t i = 0; i < alone.data.size(); ++i) CHECK(one->data[i] == doctest::Approx(alone.data[i]).epsilon(1e-5));
+  }
+  CHECK_THROWS_AS((void)predict_foreground(net, std::vector<Image>{}), InvalidInput);
   // Another kind of checkpoint, and a truncated file.
   Checkpoint other;
   other.header["kind"] = "pose_model";

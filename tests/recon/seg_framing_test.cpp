@@ -344,3 +344,48 @@ TEST_CASE("recon framing: the segmenter's window scan finds a small object the w
   CHECK(g.segmenter_scan.candidates == 0);
   CHECK(on_red(g.mask) == 0.0);
 }
+
+TEST_CASE("recon framing: a batch reader gets each round of the window scan in one call, with the same answer") {
+  const Image photo = small_object_photo();
+  int zooms = -1, zooms_batched = -1;
+  SegmenterScan scan, scan_batched;
+  const Image one_by_one = zoomed_foreground(red_unless_small, photo, 2, 0.7, "photo.png", &zooms, true, &scan);
+  std::vector<size_t> calls;  // images per batch call
+  int single_calls = 0;
+  const auto single = [&](const Image& rgb) {
+    ++single_calls;
+    return red_unless_small(rgb);
+  };
+  const auto batch = [&](const std::vector<Image>& rgbs) {
+    calls.push_back(rgbs.size());
+    std::vector<Image> out;
+    for (const Image& im : rgbs) out.push_back(red_unless_small(im));
+    return out;
+  };
+  const Image batched =
+      zoomed_foreground(single, photo, 2, 0.7, "photo.png", &zooms_batched, true, &scan_batched, batch);
+  CHECK(batched.data == one_by_one.data);
+  CHECK(zooms_batched == zooms);
+  CHECK(scan_batched.chosen == scan.chosen);
+  CHECK(scan_batched.agreement == scan.agreement);
+  // The whole image and its six windows read together, then each zoom round's squares together (a round whose
+  // only square is left goes to the single reader).
+  REQUIRE_FALSE(calls.empty());
+  CHECK(calls[0] == 7);
+  CHECK(calls.size() <= 3);
+  size_t read = single_calls;
+  for (const size_t c : calls) read += c;
+  CHECK(read <= 21);
+  // Without the scan, one image at a time through the single reader.
+  calls.clear();
+  single_calls = 0;
+  (void)zoomed_foreground(single, photo, 2, 0.7, "photo.png", &zooms, false, nullptr, batch);
+  CHECK(calls.empty());
+  CHECK(single_calls == 1 + zooms);
+  // A batch reader answering for another number of images is an error naming the input.
+  const auto short_batch = [](const std::vector<Image>& rgbs) {
+    return std::vector<Image>(rgbs.size() - 1, Image(1, 1, 1, 0.0f));
+  };
+  CHECK_THROWS_WITH_AS(zoomed_foreground(single, photo, 2, 0.7, "photo.png", nullptr, true, nullptr, short_batch),
+                       "photo.png: the segmenter answered for another number of images", InvalidInput);
+}
