@@ -111,6 +111,33 @@ TEST_CASE("recon framing with the segmenter: net and auto use it, the ramp keeps
   CHECK(fallback.mask_source == "grabcut");
   CHECK(fallback.mask.data == by_grabcut.mask.data);
   CHECK(disc_iou(fallback.mask) > 0.8);
+  // A network that marks a thin object GrabCut cannot follow (a 3 px strip with the background's own colours):
+  // GrabCut seeded with it keeps nothing, and the network's mask is kept rather than the rectangle's GrabCut,
+  // which finds the disc the network did not mark (the order before: GrabCut alone whenever the seeded one failed).
+  const Image& lined = textured;  // the line is a strip of the texture itself
+  const auto line_net = [](const Image& rgb) {
+    Image p(rgb.width, rgb.height, 1, 0.1f);
+    for (int x = 20; x < 60; ++x)
+      for (int y = 99; y < 102; ++y) p.at(x, y) = 0.95f;
+    return p;
+  };
+  st.segmenter = line_net;
+  st.segmenter_zoom_rounds = 0;
+  const Image line_seed = [&] {
+    Image m = line_net(lined);
+    for (float& v : m.data) v = std::clamp((v - 0.5f) / 0.4f, 0.f, 1.f);
+    return m;
+  }();
+  const Image seeded = grabcut_mask(lined, {5, 4, 150, 112}, st.grabcut_max_side, st.grabcut_iterations,
+                                    GrabCutSeed::kMask, &line_seed);
+  REQUIRE(std::none_of(seeded.data.begin(), seeded.data.end(), [](float v) { return v > 0.5f; }));
+  REQUIRE(disc_iou(frame_input(lined, nullptr, gc, "lined.png").mask) > 0.8);  // what the rectangle finds
+  const FramedInput thin = frame_input(lined, nullptr, st, "lined.png");
+  CHECK(thin.mask_source == "net");
+  CHECK(thin.mask.at(40, 100) == 1.0f);
+  CHECK(thin.mask.at(100, 60) == 0.0f);
+  CHECK(thin.object_box.x == 20);
+  CHECK(thin.object_box.w == 40);
   st.segmenter = disc_probability;
   // A plain background is still found without the network in auto mode.
   Image plain(160, 120, 3, 1.0f);
