@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <unistd.h>
 
 using namespace sdfkit;
@@ -35,6 +36,28 @@ PointsF random_points(int n, uint64_t seed) {
   for (int i = 0; i < n; ++i)
     for (int c = 0; c < 3; ++c) p(i, c) = static_cast<float>(rng.uniform(-0.8, 0.8));
   return p;
+}
+
+/// `rows` random 40 px images (values uniform in [0, 1) from `rng`).
+MatrixXfR random_images(int rows, Rng& rng) {
+  MatrixXfR img(rows, 3 * 40 * 40);
+  for (Eigen::Index i = 0; i < img.size(); ++i) img.data()[i] = static_cast<float>(rng.uniform());
+  return img;
+}
+
+/// Nudges every parameter off its initialisation by up to 0.05 (draws from `rng`), for gradient checks.
+void perturb(PoseNet& net, Rng& rng) {
+  for (auto& v : net.params().values) v += static_cast<float>(0.05 * rng.uniform(-1, 1));
+}
+
+/// Relative error between `grads` (the analytic gradient `value` leaves) and central differences of `value` in
+/// float at the parameters `idx`.
+double gradient_error(PoseNet& net, const std::function<double()>& value, const std::vector<float>& grads,
+                      const std::vector<size_t>& idx) {
+  const std::vector<double> numeric = test::numeric_gradient<float>(value, net.params().values.data(), idx, 2e-3);
+  std::vector<double> analytic;
+  for (size_t i : idx) analytic.push_back(grads[i]);
+  return test::relative_error(analytic, numeric);
 }
 
 }  // namespace
@@ -111,8 +134,7 @@ TEST_CASE("pose net: training on a tiny batch lowers L_cam, model file round tri
   PoseNet net(s, true);
   net.init(5);
   Rng rng(9);
-  MatrixXfR img(4, 3 * 40 * 40);
-  for (Eigen::Index i = 0; i < img.size(); ++i) img.data()[i] = static_cast<float>(rng.uniform());
+  const MatrixXfR img = random_images(4, rng);
   std::vector<Camera> truth = {look_at(10, 25, 2.5), look_at(100, 30, 2.9), look_at(200, 26, 2.6),
                                look_at(300, 28, 2.8)};
   std::vector<PointsF> pts;
@@ -163,9 +185,8 @@ TEST_CASE("pose net with extra convolutions: deeper trunk, gradients by finite d
   CHECK(PoseNetSettings::from_json(tiny_with_head(8).to_json()).extra_convs == 0);  // older models: absent
   net.init(21);
   Rng rng(22);
-  for (auto& v : net.params().values) v += static_cast<float>(0.05 * rng.uniform(-1, 1));
-  MatrixXfR img(2, 3 * 40 * 40);
-  for (Eigen::Index i = 0; i < img.size(); ++i) img.data()[i] = static_cast<float>(rng.uniform());
+  perturb(net, rng);
+  const MatrixXfR img = random_images(2, rng);
   const std::vector<Camera> truth = {look_at(60, 26, 2.5), look_at(200, 29, 2.8)};
   const std::vector<PointsF> pts = {random_points(32, 3), random_points(32, 4)};
   PoseLossOptions lo;
@@ -182,10 +203,7 @@ TEST_CASE("pose net with extra convolutions: deeper trunk, gradients by finite d
   // + 148 + ...): sample those densely, then the rest.
   std::vector<size_t> idx = test::some_indices(2000, 30, 6);
   for (size_t i : test::some_indices(net.n_params(), 30, 7)) idx.push_back(i);
-  const std::vector<double> numeric = test::numeric_gradient<float>(value, net.params().values.data(), idx, 2e-3);
-  std::vector<double> analytic;
-  for (size_t i : idx) analytic.push_back(grads[i]);
-  CHECK(test::relative_error(analytic, numeric) < 2e-2);
+  CHECK(gradient_error(net, value, grads, idx) < 2e-2);
 
   const auto dir = test::scratch_dir("pose_net_deep");
   const std::string path = (dir / "pose.ckpt").string();
@@ -299,9 +317,8 @@ TEST_CASE("pose net with an azimuth head: gradients of L_cam (modulo symmetries)
   PoseNet net(s, true);
   net.init(11);
   Rng rng(12);
-  for (auto& v : net.params().values) v += static_cast<float>(0.05 * rng.uniform(-1, 1));
-  MatrixXfR img(2, 3 * 40 * 40);
-  for (Eigen::Index i = 0; i < img.size(); ++i) img.data()[i] = static_cast<float>(rng.uniform());
+  perturb(net, rng);
+  const MatrixXfR img = random_images(2, rng);
   const std::vector<Camera> truth = {look_at(30, 25, 2.6), look_at(250, 28, 2.9)};
   const std::vector<PointsF> pts = {random_points(32, 1), random_points(32, 2)};
   const Mat3 half = Eigen::AngleAxisd(3.14159265358979323846, Vec3::UnitY()).toRotationMatrix();
@@ -336,10 +353,7 @@ TEST_CASE("pose net with an azimuth head: gradients of L_cam (modulo symmetries)
   // Every other parameter: central differences in float (loose tolerance), over the trunk and the three heads.
   std::vector<size_t> idx = test::some_indices(net.n_params(), 40, 5);
   for (size_t k = 0; k < 20; ++k) idx.push_back(net.n_params() - 1 - 37 * k);  // the heads
-  const std::vector<double> numeric = test::numeric_gradient<float>(value, net.params().values.data(), idx, 2e-3);
-  std::vector<double> analytic;
-  for (size_t i : idx) analytic.push_back(grads[i]);
-  CHECK(test::relative_error(analytic, numeric) < 2e-2);
+  CHECK(gradient_error(net, value, grads, idx) < 2e-2);
   // Weight 0 leaves the head without gradient, and a head-less model refuses a weight.
   lo.azimuth_weight = 0;
   net.params().zero_grad();
@@ -458,9 +472,8 @@ TEST_CASE("pose net with a centre head: closed-form loss, gradients by finite di
   PoseNet net(s, true);
   net.init(21);
   Rng rng(22);
-  for (auto& v : net.params().values) v += static_cast<float>(0.05 * rng.uniform(-1, 1));
-  MatrixXfR img(2, 3 * 40 * 40);
-  for (Eigen::Index i = 0; i < img.size(); ++i) img.data()[i] = static_cast<float>(rng.uniform());
+  perturb(net, rng);
+  const MatrixXfR img = random_images(2, rng);
   Camera t0 = look_at(30, 25, 2.6, 40, 40), t1 = look_at(250, 28, 2.9, 40, 40);
   t0.K(0, 2) += 3.0;
   t1.K(1, 2) -= 4.0;
@@ -491,10 +504,7 @@ TEST_CASE("pose net with a centre head: closed-form loss, gradients by finite di
   }
   std::vector<size_t> idx = test::some_indices(net.n_params(), 40, 7);
   for (size_t k = 0; k < 24; ++k) idx.push_back(net.n_params() - 1 - 5 * k);  // the centre head
-  const std::vector<double> numeric = test::numeric_gradient<float>(value, net.params().values.data(), idx, 2e-3);
-  std::vector<double> analytic;
-  for (size_t i : idx) analytic.push_back(grads[i]);
-  CHECK(test::relative_error(analytic, numeric) < 2e-2);
+  CHECK(gradient_error(net, value, grads, idx) < 2e-2);
   // The predicted camera's principal point is c + f o for the head's output: with its last layer's weights at 0,
   // o is the bias.
   const size_t n = net.n_params();
