@@ -98,7 +98,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
   app.add_option("--per-image", o->per_image,
                  "also write every image's scores to this CSV file: id, view, d3D, d2D (and their -sym forms), the "
                  "rotation error's angle and its nearest turn about the vertical axis (about +-180 for a whole-view "
-                 "flip), the true and estimated distances");
+                 "flip), the true and estimated distances, the principal points' distance (px)");
   app.add_flag("--json", o->json, "print JSON (overall + per category) instead of text");
   return [o, &app] {
     const std::vector<double> zoom_tta = parse_zoom_list(o->zoom_tta, "eval-pose: --zoom-tta");
@@ -175,14 +175,14 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     bar.finish();
     if (!o->per_image.empty())
       write_file_atomic(o->per_image, [&](std::ostream& f) {
-        f << "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est";
+        f << "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est,centre_px";
         if (o->twins) f << ",d3d_twin,d2d_twin,twin_diff";
         f << '\n' << std::setprecision(6);
         for (size_t i = 0; i < items.size(); ++i) {
           const PoseItemScore& it = items[i];
           f << it.id << ',' << it.view << ',' << it.plain.d3d << ',' << it.plain.d2d << ',' << it.sym.d3d << ','
             << it.sym.d2d << ',' << it.rotation_deg << ',' << it.azimuth_deg << ',' << it.distance << ','
-            << it.distance_est;
+            << it.distance_est << ',' << it.centre_px;
           if (o->twins) {
             f << ',' << it.twin.d3d << ',' << it.twin.d2d << ',';
             if (!std::isnan(twin_diff[i])) f << twin_diff[i];
@@ -193,7 +193,10 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o->json) {
       auto scores = [&](const PoseScores& v) {
-        Json j = {{"d3d", v.d3d}, {"d2d", v.d2d}, {"loss", v.loss}, {"items", v.items}, {"large_error_share", v.large}};
+        Json j = {{"d3d", v.d3d},        {"d2d", v.d2d},
+                  {"loss", v.loss},      {"items", v.items},
+                  {"large_error_share", v.large}, {"centre_px", v.centre_px},
+                  {"distance_error", v.distance_error}};
         if (o->symmetry) {
           j["d3d_sym"] = v.d3d_sym;
           j["d2d_sym"] = v.d2d_sym;
@@ -223,12 +226,14 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
       std::cout << j.dump(2) << '\n';
     } else {
       auto row = [&](const std::string& name, const PoseScores& v) {
-        std::printf("%-14s %8ld %10.4f %10.3f %9.1f%%", name.c_str(), v.items, v.d3d, v.d2d, 100.0 * v.large);
+        std::printf("%-14s %8ld %10.4f %10.3f %9.1f%% %10.3f %9.1f%%", name.c_str(), v.items, v.d3d, v.d2d,
+                    100.0 * v.large, v.centre_px, 100.0 * v.distance_error);
         if (o->symmetry) std::printf(" %10.4f %10.3f", v.d3d_sym, v.d2d_sym);
         if (o->twins) std::printf(" %10.4f %10.3f", v.d3d_twin, v.d2d_twin);
         std::printf("\n");
       };
-      std::printf("%-14s %8s %10s %10s %10s", "category", "items", "d3D", "d2D(px)", ">10px");
+      std::printf("%-14s %8s %10s %10s %10s %10s %10s", "category", "items", "d3D", "d2D(px)", ">10px", "centre(px)",
+                  "dist err");
       if (o->symmetry) std::printf(" %10s %10s", "d3D-sym", "d2D-sym");
       if (o->twins) std::printf(" %10s %10s", "d3D-twin", "d2D-twin");
       std::printf("\n");

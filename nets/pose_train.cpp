@@ -491,6 +491,9 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
   for (size_t i = 0; i < items.size(); ++i) {
     const ItemScore& it = scored[i];
     const int s = items[i].first;
+    const double centre_px =
+        std::hypot(it.predicted.K(0, 2) - it.truth.K(0, 2), it.predicted.K(1, 2) - it.truth.K(1, 2));
+    const double distance_error = std::abs(it.predicted.t.norm() / it.truth.t.norm() - 1.0);
     PoseErrors twin = it.plain;
     if (es.twins) {
       const std::vector<Mat3> g = es.twins(static_cast<size_t>(s), items[i].second, it.truth, it.predicted);
@@ -507,6 +510,7 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
       std::tie(p.rotation_deg, p.azimuth_deg) = rotation_error_degrees(it.predicted.R, it.truth.R);
       p.distance = it.truth.t.norm();
       p.distance_est = it.predicted.t.norm();
+      p.centre_px = centre_px;
       per_item->push_back(std::move(p));
     }
     for (PoseScores* p : {&total, per_category ? &(*per_category)[data.shape(s).category] : nullptr}) {
@@ -519,6 +523,8 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
       p->d3d_twin += twin.d3d;
       p->d2d_twin += twin.d2d;
       p->large += it.plain.d2d > kLargePoseError ? 1.0 : 0.0;
+      p->centre_px += centre_px;
+      p->distance_error += distance_error;
       ++p->items;
     }
   }
@@ -532,6 +538,8 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
     p.d3d_twin /= static_cast<double>(p.items);
     p.d2d_twin /= static_cast<double>(p.items);
     p.large /= static_cast<double>(p.items);
+    p.centre_px /= static_cast<double>(p.items);
+    p.distance_error /= static_cast<double>(p.items);
   };
   finish(total);
   if (per_category)

@@ -86,6 +86,11 @@ struct PoseScores {
   double d3d_twin = 0, d2d_twin = 0;
   /// Share of the items whose d2D exceeds kLargePoseError px (whole-view flips and turns; evaluate_pose only).
   double large = 0;
+  /// Mean distance (pixels of the network image) between the estimated and the true principal point, i.e. where
+  /// each camera shows the object-frame origin (evaluate_pose only; 0 for renders read without a centre head).
+  double centre_px = 0;
+  /// Mean relative distance error |d_est / d_true - 1| (evaluate_pose only).
+  double distance_error = 0;
 };
 
 /// d2D (pixels) above which evaluate_pose counts an estimate as a large error (PoseScores::large).
@@ -148,6 +153,7 @@ struct PoseItemScore {
   /// R_true R_y(azimuth_deg); a whole-view flip reads about 180.
   double azimuth_deg = 0;
   double distance = 0, distance_est = 0;  ///< true and estimated camera distance |t|
+  double centre_px = 0;  ///< distance between the estimated and the true principal point (network image pixels)
 };
 
 PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettings& settings,

@@ -431,6 +431,41 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
     CHECK(t.d2d_sym == t.d2d);  // twins are not symmetries
   }
 
+  // The centre and distance columns. A network without a centre head puts the principal point at the image centre,
+  // as a render has it: no centre error on the views as rendered. Reframed, the true principal point moves with the
+  // crop, so the error is its distance from the image centre, taken here from reframe_images on the same images.
+  {
+    REQUIRE_FALSE(net->settings().centre_head);
+    CHECK(all_plain.centre_px == 0.0);
+    PoseEvalSettings rf = es;
+    rf.reframe = true;
+    std::vector<PoseItemScore> rf_items;
+    const PoseScores r = evaluate_pose(*net, data, rf, nullptr, {}, &rf_items);
+    REQUIRE(rf_items.size() == 2);
+    const int S = net->settings().image_size;
+    MatrixXfR images(2, 3 * S * S);
+    std::vector<Camera> cams;
+    for (size_t s2 = 0; s2 < 2; ++s2) {
+      images.row(static_cast<Eigen::Index>(s2)) = network_image(data.image(s2, 0), S).transpose();
+      cams.push_back(data.camera(s2, 0));
+    }
+    ReframeAugmentSettings all_framed;
+    all_framed.prob = 1;
+    all_framed.camera = ZoomAugmentSettings::CameraFollow::kDistance;
+    reframe_images(images, cams, all_framed, rf.seed, 0);
+    double mean_px = 0, mean_dist = 0;
+    for (size_t k = 0; k < 2; ++k) {
+      const double expected = std::hypot(cams[k].K(0, 2) - 0.5 * S, cams[k].K(1, 2) - 0.5 * S);
+      CHECK(expected > 0.5);  // the crop really moved the origin
+      CHECK(rf_items[k].centre_px == doctest::Approx(expected).epsilon(1e-9));
+      mean_px += rf_items[k].centre_px / 2;
+      mean_dist += std::abs(rf_items[k].distance_est / rf_items[k].distance - 1) / 2;
+    }
+    CHECK(r.centre_px == doctest::Approx(mean_px).epsilon(1e-12));
+    CHECK(r.distance_error == doctest::Approx(mean_dist).epsilon(1e-12));
+    CHECK(r.distance_error > 0);
+  }
+
   // The CLI finds the symmetries in each shape's gt.obj: a centred oblong box has the half turn, a box off the
   // axis none; its scores are those of the API with the same symmetries (one reading per view, as the API's net).
   const std::string cmd = "eval-pose --model " + s.out + " --data " + root.string() +
@@ -458,7 +493,7 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
   std::istringstream lines(read_file(csv));
   std::string line;
   std::getline(lines, line);
-  CHECK(line == "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est");
+  CHECK(line == "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est,centre_px");
   std::vector<std::string> rows;
   while (std::getline(lines, line)) rows.push_back(line);
   REQUIRE(rows.size() == 2);
@@ -510,18 +545,18 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
   CHECK(tj.at("per_category").at("car").contains("d2d_twin"));
   std::istringstream twin_lines(read_file(twins_csv));
   std::getline(twin_lines, line);
-  CHECK(line == "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est,d3d_twin,d2d_twin,"
-                "twin_diff");
+  CHECK(line == "id,view,d3d,d2d,d3d_sym,d2d_sym,rotation_deg,azimuth_deg,distance,distance_est,centre_px,"
+                "d3d_twin,d2d_twin,twin_diff");
   int tested = 0, rows_seen = 0;
   while (std::getline(twin_lines, line)) {
     ++rows_seen;
     const bool has_diff = line.back() != ',';
     CHECK(has_diff == (std::abs(field(line, 7)) >= 20));
-    CHECK(field(line, 11) <= field(line, 3) + 1e-9);
+    CHECK(field(line, 12) <= field(line, 3) + 1e-9);
     if (has_diff) {
       ++tested;
-      CHECK(field(line, 12) >= 0);
-      CHECK(field(line, 12) <= 1);
+      CHECK(field(line, 13) >= 0);
+      CHECK(field(line, 13) <= 1);
     }
   }
   CHECK(rows_seen == 4);
