@@ -32,7 +32,7 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
   for (const char* f : {"--refine-distance", "--refine-evals", "--refine-max-deg", "--refine-max-distance"})
     if (!local && given(f)) throw InvalidInput(std::string(f) + " applies with --refine-local");
   for (const char* f : {"--pose-model", "--photo-pose-model", "--flip-check", "--pose-distances", "--pose-tta",
-                        "--pose-zoom-tta"})
+                        "--pose-zoom-tta", "--framing-fit-centre"})
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
   if (dense && given("--no-follow")) throw InvalidInput("--no-follow applies to the adaptive extraction, not to --dense");
@@ -102,7 +102,8 @@ int fuse_views(const Reconstructor& rec, const std::vector<std::string>& inputs,
 std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
     std::string input, out, model, photo_model, pose_model, photo_pose_model, seg_model,
-        cam = "est", mask, format = "obj", segment = "auto", seg_scan = "on", framing = "auto", box;
+        cam = "est", mask, format = "obj", segment = "auto", seg_scan = "on", framing = "auto", box,
+        fit_centre = "auto";
     std::string pose_distances = "off", pose_tta = "mirror", pose_zoom_tta = zoom_list(kDefaultPoseZoomTta);
     ReconSettings s;
     bool json = false, no_preview = false;
@@ -172,10 +173,17 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_option("--framing-fit", o->s.framing_fit_rounds,
                  "rounds of fitting the crop of a reframed image to where a training render would show the object "
                  "(origin at the centre, size of its distance; docs/recon.md): with a given camera one exact round, "
-                 "with an estimated one each round reconstructs a coarse mesh to find the object's centre and "
-                 "size (0 = off)")
+                 "with an estimated one each round cuts the crop where the estimate shows the object "
+                 "(--framing-fit-centre) and reads the new crop (0 = off)")
       ->capture_default_str()
       ->check(CLI::Range(0, 8));
+  app.add_option("--framing-fit-centre", o->fit_centre,
+                 "with an estimated camera, where a fitting round cuts the crop: camera = where the estimate shows "
+                 "the object-frame origin, at its distance's size; shape = at the centre and size of a coarse mesh "
+                 "reconstructed through it; auto = camera when the pose model reading reframed images has a centre "
+                 "head (the shipped photo pose model has), else shape")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "camera", "shape"}));
   app.add_option("--cam", o->cam,
                  "est = estimate the camera with the pose network; a camera JSON file (views/NN.json format) for "
                  "every image; sidecar = IMAGE's own <name>.json")
@@ -304,6 +312,9 @@ std::function<int()> setup_recon(CLI::App& app) {
     o->s.framing.segment = parse_segmentation(o->segment);
     configure_segmenter(app, o->s.framing, o->seg_model, o->seg_scan, o->mask.empty());
     o->s.framing.reframe = parse_reframing(o->framing);
+    o->s.framing_fit_centre = o->fit_centre == "camera"  ? ReconSettings::FitCentre::kCamera
+                              : o->fit_centre == "shape" ? ReconSettings::FitCentre::kShape
+                                                         : ReconSettings::FitCentre::kAuto;
     o->s.pose_mirror_tta = o->pose_tta == "mirror";
     o->s.pose_zoom_tta = parse_zoom_list(o->pose_zoom_tta, "recon: --pose-zoom-tta");
     if (o->pose_distances != "off")
@@ -313,8 +324,9 @@ std::function<int()> setup_recon(CLI::App& app) {
     if (o->refine && o->s.refine_rounds == 0) o->s.refine_rounds = 1;
     const bool estimate = o->cam == "est";
     check_flags_apply(app, estimate, o->s.refine_rounds > 0, o->s.refine.local_search, o->s.dense, !o->mask.empty());
-    if (o->s.framing.reframe == Reframing::kNone && app.get_option("--framing-fit")->count() > 0)
-      throw InvalidInput("--framing-fit fits the crop of a reframed image; it does not apply with --framing none");
+    for (const char* f : {"--framing-fit", "--framing-fit-centre"})
+      if (o->s.framing.reframe == Reframing::kNone && app.get_option(f)->count() > 0)
+        throw InvalidInput(std::string(f) + " fits the crop of a reframed image; it does not apply with --framing none");
     if (o->s.framing.reframe == Reframing::kNone && app.get_option("--photo-model")->count() > 0)
       throw InvalidInput("--photo-model reconstructs reframed images; it does not apply with --framing none");
     const bool sidecar = o->cam == "sidecar";

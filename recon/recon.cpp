@@ -237,6 +237,10 @@ int Reconstructor::fit_framing(const Image& image, FramedInput& framed, Eigen::V
   const ViewSetSettings renders;  // the training renders' camera distances
   const int rounds = camera != nullptr ? std::min(1, settings.framing_fit_rounds) : settings.framing_fit_rounds;
   const int res = std::min(settings.framing_fit_resolution, settings.resolution);
+  const PoseNet* reader = photo_pose_ ? photo_pose_.get() : pose_.get();  // the network that reads reframed images
+  const bool fit_to_shape =
+      settings.framing_fit_centre == ReconSettings::FitCentre::kShape ||
+      (settings.framing_fit_centre == ReconSettings::FitCentre::kAuto && !(reader && reader->settings().centre_head));
   int done = 0;
   for (int round = 0; round < rounds; ++round) {
     SquareCrop crop;
@@ -245,12 +249,14 @@ int Reconstructor::fit_framing(const Image& image, FramedInput& framed, Eigen::V
                            renders.distance_min, renders.distance_max, settings.framing.training);
     } else {
       const Camera c = estimate_network_camera(input.head(3 * kNetImageSize * kNetImageSize), settings, nullptr, true);
-      Normalization shape;
-      try {
-        MeshStats st;
-        shape = unit_sphere_normalization(reconstruct(input, c, settings, res, what, st, true));
-      } catch (const Error&) {
-        break;  // no surface (or a degenerate one) through this camera: keep the crop
+      Normalization shape;  // the object's unit-sphere frame in the camera's object frame: the camera's own, or ...
+      if (fit_to_shape) {   // ... the coarse mesh's
+        try {
+          MeshStats st;
+          shape = unit_sphere_normalization(reconstruct(input, c, settings, res, what, st, true));
+        } catch (const Error&) {
+          break;  // no surface (or a degenerate one) through this camera: keep the crop
+        }
       }
       crop = training_crop(c, framed, shape.center, shape.radius, renders.distance_min, renders.distance_max,
                            settings.framing.training);

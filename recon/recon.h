@@ -106,11 +106,17 @@ struct ReconSettings {
   /// Rounds of fitting the crop to the object when the framing reframed the input (0 = off; docs/recon.md, "Input
   /// and framing"). frame_input centres the object's box at one size; a render shows the object-frame origin at the
   /// centre and the object at its distance's size. With a given camera one round moves the crop there exactly
-  /// (training_crop); with an estimated one each round reconstructs a coarse mesh (`framing_fit_resolution`) through
-  /// the pose network's camera, takes the mesh's unit-sphere frame (centre and radius, sdf/normalize.h) as the
-  /// object's and re-cuts the crop (training_crop), and the pose network then reads the new crop.
+  /// (training_crop); with an estimated one each round re-cuts the crop where the pose network's camera shows the
+  /// object (framing_fit_centre), and the pose network then reads the new crop.
   int framing_fit_rounds = 1;
   int framing_fit_resolution = 33;
+  /// Where a fitting round with an estimated camera puts the crop (docs/recon.md, "Input and framing"):
+  /// kCamera: where the camera shows the object-frame origin, at its distance's size (what a given camera gets);
+  /// kShape: at the unit-sphere frame (centre and radius, sdf/normalize.h) of a coarse mesh reconstructed through
+  /// the camera (`framing_fit_resolution`); kAuto: kCamera when the pose network reading the reframed image has a
+  /// centre head (it reads where the origin is), else kShape (its cameras show the origin at the image centre).
+  enum class FitCentre { kAuto, kCamera, kShape };
+  FitCentre framing_fit_centre = FitCentre::kAuto;
 };
 
 struct ReconTimings {

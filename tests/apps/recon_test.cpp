@@ -10,6 +10,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -284,6 +285,37 @@ TEST_CASE("recon of a non-square photo-like image: plain background found, refra
   CHECK(netd.t.norm() == doctest::Approx(2.6).epsilon(1e-9));
   CHECK((project(netd, Vec3::Zero()) - project(net0, Vec3::Zero())).norm() < 1e-6);
   CHECK(netd.K(0, 0) / net0.K(0, 0) == doctest::Approx(2.6 / net0.t.norm()).epsilon(1e-9));
+  // Where the fitting round cuts the crop (--framing-fit-centre). auto with the shipped photo pose model, which has a
+  // centre head, is camera: the crop is centred where the first reading (the box-centred crop's, which --framing-fit 0
+  // reports) shows the origin, at the size a unit sphere has in a render at the nearest render distance.
+  const Camera input0 = camera_from_json(j0["camera"]);
+  const Run rc = run("recon " + in + " -o " + (dir / "comp_c.obj").string() + " --res 33 --json --no-preview");
+  const Run rc2 = run("recon " + in + " -o " + (dir / "comp_c2.obj").string() +
+                      " --res 33 --json --no-preview --framing-fit-centre camera");
+  REQUIRE_MESSAGE(rc.code == 0, rc.err);
+  REQUIRE_MESSAGE(rc2.code == 0, rc2.err);
+  CHECK(read_file((dir / "comp_c.obj").string()) == read_file((dir / "comp_c2.obj").string()));
+  const Json jc = Json::parse(rc.out);
+  const Json& crop = jc["framing"]["crop"];
+  const double side = crop["side"].get<double>();
+  const Eigen::Vector2d origin0 = project(input0, Vec3::Zero());
+  CHECK(crop["x"].get<double>() + 0.5 * side == doctest::Approx(origin0.x()).epsilon(1e-9));
+  CHECK(crop["y"].get<double>() + 0.5 * side == doctest::Approx(origin0.y()).epsilon(1e-9));
+  const double d0 = input0.t.norm();
+  CHECK(side == doctest::Approx(137 * input0.K(0, 0) * std::clamp(d0, 2.45, 3.0) / (kDisnFocal * d0)).epsilon(1e-9));
+  // shape: the crop follows a coarse mesh reconstructed through that reading instead.
+  const Run rs = run("recon " + in + " -o " + (dir / "comp_s.obj").string() +
+                     " --res 33 --json --no-preview --framing-fit-centre shape");
+  REQUIRE_MESSAGE(rs.code == 0, rs.err);
+  CHECK(std::abs(Json::parse(rs.out)["framing"]["crop"]["x"].get<double>() - crop["x"].get<double>()) > 0.1);
+  // The main pose model has no centre head (its cameras show the origin at the image centre): auto is shape.
+  const std::string main_pose = " --res 33 --json --no-preview --photo-pose-model none";
+  const Run ra = run("recon " + in + " -o " + (dir / "comp_ma.obj").string() + main_pose);
+  const Run rb = run("recon " + in + " -o " + (dir / "comp_mb.obj").string() + main_pose + " --framing-fit-centre shape");
+  REQUIRE_MESSAGE(ra.code == 0, ra.err);
+  REQUIRE_MESSAGE(rb.code == 0, rb.err);
+  CHECK(read_file((dir / "comp_ma.obj").string()) == read_file((dir / "comp_mb.obj").string()));
+  CHECK(run("recon " + in + " -o " + (dir / "comp_bad.stl").string() + " --framing-fit-centre middle").code != 0);
 
   // With the true camera (the example's view moved to the pasted place) one fitting round finds the pasted render's
   // square exactly: the network camera is the example's camera again.
@@ -342,6 +374,10 @@ TEST_CASE("recon of a non-square photo-like image: plain background found, refra
                      " --photo-pose-model none");
   CHECK(rg.code == 1);
   CHECK(rg.err.find("--photo-pose-model applies with --cam est") != std::string::npos);
+  const Run rkg = run("recon " + in + " -o " + (dir / "comp_kg.stl").string() + " --cam " + cam_path +
+                      " --framing-fit-centre camera");
+  CHECK(rkg.code == 1);
+  CHECK(rkg.err.find("--framing-fit-centre applies with --cam est") != std::string::npos);
   const Run rn = run("recon " + in + " -o " + (dir / "comp_bad.stl").string() + " --framing none --framing-fit 1");
   CHECK(rn.code == 1);
   CHECK(rn.err.find("--framing-fit") != std::string::npos);
