@@ -193,9 +193,12 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o->json) {
       auto scores = [&](const PoseScores& v) {
-        Json j = {{"d3d", v.d3d},        {"d2d", v.d2d},
-                  {"loss", v.loss},      {"items", v.items},
-                  {"large_error_share", v.large}, {"centre_px", v.centre_px},
+        Json j = {{"d3d", v.d3d},
+                  {"d2d", v.d2d},
+                  {"loss", v.loss},
+                  {"items", v.items},
+                  {"large_error_share", v.large},
+                  {"centre_px", v.centre_px},
                   {"distance_error", v.distance_error}};
         if (o->symmetry) {
           j["d3d_sym"] = v.d3d_sym;
