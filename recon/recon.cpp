@@ -109,7 +109,7 @@ std::unique_ptr<Reconstructor> Reconstructor::load(const std::string& sdf_path, 
 Camera Reconstructor::estimate_camera(const Eigen::VectorXf& input, double flip_check, double* flip_turn_deg,
                                      bool mirror_tta, bool reframed, const std::vector<double>& zoom_tta) const {
   if (!pose_) throw InvalidInput("no pose model loaded: give the camera (--cam FILE) or a pose model");
-  PoseNet& net = reframed && photo_pose_ ? *photo_pose_ : *pose_;
+  PoseNet& net = *pose_for(reframed);
   MatrixXfR images(1, input.size());
   images.row(0) = input.transpose();
   std::lock_guard<std::mutex> lock(pose_mutex_);
@@ -237,7 +237,7 @@ int Reconstructor::fit_framing(const Image& image, FramedInput& framed, Eigen::V
   const ViewSetSettings renders;  // the training renders' camera distances
   const int rounds = camera != nullptr ? std::min(1, settings.framing_fit_rounds) : settings.framing_fit_rounds;
   const int res = std::min(settings.framing_fit_resolution, settings.resolution);
-  const PoseNet* reader = photo_pose_ ? photo_pose_.get() : pose_.get();  // the network that reads reframed images
+  const PoseNet* reader = pose_for(true);
   const bool fit_to_shape =
       settings.framing_fit_centre == ReconSettings::FitCentre::kShape ||
       (settings.framing_fit_centre == ReconSettings::FitCentre::kAuto && !(reader && reader->settings().centre_head));

@@ -244,6 +244,8 @@ class Reconstructor {
   };
   /// The SDF network of an input: the photo one for a reframed input when it is loaded.
   const SdfNet& sdf_for(bool reframed) const { return reframed && photo_sdf_ ? *photo_sdf_ : *sdf_; }
+  /// The pose network that reads an input (the photo pose model for a reframed one when loaded); null without one.
+  PoseNet* pose_for(bool reframed) const { return reframed && photo_pose_ ? photo_pose_.get() : pose_.get(); }
   Mesh reconstruct(const Eigen::VectorXf& input, const Camera& camera, const ReconSettings& settings, int resolution,
                    const std::string& what, MeshStats& stats, bool reframed = false) const;
   /// The result's fields every reconstruction fills the same way from the final mesh's stats, and the preview
