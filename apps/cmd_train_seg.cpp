@@ -53,6 +53,11 @@ std::function<int()> setup_train_seg(CLI::App& app) {
       ->capture_default_str()
       ->check(in_range(0, 4));
   app.add_option("--decoder", o->decoder, "widths of the 1x1 decoder layers on the hypercolumn")->capture_default_str();
+  app.add_option("--fine", s.net.fine,
+                 "channels of a full-resolution branch (two 3x3 convolutions of the input) joining the decoder, which "
+                 "then predicts at the input's resolution instead of half of it (0 = off)")
+      ->capture_default_str()
+      ->check(in_range(0, 256));
   app.add_option("--procedural", s.composite.procedural,
                  "probability of a procedural background (flat, gradient, noise, stripes, checker) instead of a photo")
       ->capture_default_str()
@@ -84,7 +89,9 @@ std::function<int()> setup_train_seg(CLI::App& app) {
       ->check(positive());
   app.add_option("--seed", s.seed, "seed of the initialisation, of every composite and of the validation set")
       ->capture_default_str();
-  app.add_option("--init", s.init, "start from the parameters of this segmenter model (same architecture)");
+  app.add_option("--init", s.init,
+                 "start from the parameters of this segmenter model (same architecture; or the same without --fine: "
+                 "the fine branch is added to it, disconnected at first)");
   app.add_flag("--resume", s.resume,
                "continue from MODEL.train.ckpt when it exists (same settings required; bit-exact continuation)");
   app.add_option("--minutes", o->minutes, "stop after this many minutes, saving the model (0 = no limit)")

@@ -15,7 +15,9 @@ constexpr const char* kSegKind = "seg_model";
 
 // ----------------------------------------------------------------------------------------------- configuration
 Json SegNetConfig::to_json() const {
-  return {{"size", size}, {"encoder", encoder}, {"extra_convs", extra_convs}, {"decoder", decoder}};
+  Json j = {{"size", size}, {"encoder", encoder}, {"extra_convs", extra_convs}, {"decoder", decoder}};
+  if (fine > 0) j["fine"] = fine;
+  return j;
 }
 
 SegNetConfig SegNetConfig::from_json(const Json& j) {
@@ -25,6 +27,7 @@ SegNetConfig SegNetConfig::from_json(const Json& j) {
     c.encoder = j.at("encoder").get<std::vector<int>>();
     c.extra_convs = j.at("extra_convs").get<int>();
     c.decoder = j.at("decoder").get<std::vector<int>>();
+    c.fine = j.value("fine", 0);
   } catch (const Json::exception& e) {
     throw IoError(std::string("segmenter settings: malformed (") + e.what() + ")");
   }
@@ -37,6 +40,7 @@ void SegNetConfig::validate() const {
   for (const int c : encoder) require(c > 0, "segmenter: encoder widths must be positive");
   for (const int c : decoder) require(c > 0, "segmenter: decoder widths must be positive");
   require(extra_convs >= 0 && extra_convs <= 4, "segmenter: extra convolutions per stage must be 0..4");
+  require(fine >= 0 && fine <= 256, "segmenter: the fine branch's channels must be 0..256");
   const int m = 1 << encoder.size();
   require(size >= 2 * m && size % m == 0 && size <= 1024,
           "segmenter: the input size must be a multiple of " + std::to_string(m) + " (2^stages), at least " +
@@ -70,10 +74,22 @@ SegNetT<T>::SegNetT(const SegNetConfig& config, bool with_grads) : c_(config), o
     head_.add(relu<T>());
   }
   head_.template emplace<Conv2d<T>>(Conv2dSettings{c_.decoder.back(), 1, 1, 1, 0, true});
+  if (c_.fine > 0) {
+    fine_ = std::make_unique<Sequential<T>>();
+    fine_->template emplace<Conv2d<T>>(Conv2dSettings{3, c_.fine, 3, 1, 1, true});
+    fine_->add(relu<T>());
+    fine_->template emplace<Conv2d<T>>(Conv2dSettings{c_.fine, c_.fine, 3, 1, 1, true});
+    fine_->add(relu<T>());
+    fine_proj_ = std::make_unique<Conv2d<T>>(Conv2dSettings{c_.fine, H1, 1, 1, 0, false});
+  }
   for (auto& s : stages_) store_.add(*s);
   for (auto& p : proj_) store_.add(*p);
   store_.add(*ctx_);
   store_.add(head_);
+  if (fine_) {  // last, so that a coarse network's parameters are a prefix (start_from_coarse)
+    store_.add(*fine_);
+    store_.add(*fine_proj_);
+  }
   store_.allocate(with_grads);
   maps_.resize(stages_.size());
   projected_.resize(stages_.size());
@@ -95,8 +111,27 @@ double SegNetT<T>::forward_flops(int batch) const {
     f += proj_[k]->forward_flops(in);
   }
   f += 2.0 * batch * c_.encoder.back() * c_.decoder[0];
-  f += head_.forward_flops({batch, c_.decoder[0], S / 2, S / 2});
+  const int decoder_side = fine_ ? S : S / 2;
+  if (fine_) {
+    const Shape x{batch, 3, S, S};
+    f += fine_->forward_flops(x);
+    f += fine_proj_->forward_flops(fine_->output_shape(x));
+  }
+  f += head_.forward_flops({batch, c_.decoder[0], decoder_side, decoder_side});
   return f;
+}
+
+template <typename T>
+void SegNetT<T>::start_from_coarse(const SegNetT& coarse) {
+  SegNetConfig expected = c_;
+  expected.fine = 0;
+  require(c_.fine > 0 && coarse.config().fine == 0 && coarse.config().to_json() == expected.to_json(),
+          "segmenter: starting the fine branch needs a network without it and otherwise the same settings");
+  const auto& from = coarse.params().values;
+  require(from.size() + fine_->n_params() + fine_proj_->n_params() == store_.size(),
+          "segmenter: the coarse network's parameters are not a prefix of this one's");
+  std::copy(from.begin(), from.end(), store_.values.begin());
+  std::fill(store_.values.end() - static_cast<std::ptrdiff_t>(fine_proj_->n_params()), store_.values.end(), T(0));
 }
 
 template <typename T>
@@ -132,8 +167,18 @@ const TensorT<T>& SegNetT<T>::forward(const TensorT<T>& images, bool training) {
     for (int64_t i = 0; i < HW; ++i) plane[i] += b;
   }
   head_.training(training);
-  head_.forward(z_, low_);
-  out_up_.forward(low_, logits_);
+  if (!fine_) {
+    head_.forward(z_, low_);
+    out_up_.forward(low_, logits_);
+    return logits_;
+  }
+  // Fine branch: z on the S grid = up(z_{S/2}) + W_0 m_0, and the rest of the decoder there.
+  fine_->training(training);
+  fine_->forward(x_, fine_map_);
+  fine_proj_->forward(fine_map_, resized);
+  out_up_.forward(z_, zfull_);
+  for (int64_t i = 0; i < zfull_.size(); ++i) zfull_[i] += resized[i];
+  head_.forward(zfull_, logits_);
   return logits_;
 }
 
@@ -145,8 +190,16 @@ void SegNetT<T>::backward(const TensorT<T>& dlogits) {
                                               " != logits " + shape_string(logits_.shape));
   const int64_t B = z_.dim(0), H1 = z_.dim(1), HW = z_.dim(2) * z_.dim(3);
   TensorT<T> dlow, dz, dp, dbias, dpooled, dg;
-  out_up_.backward(low_, logits_, dlogits, &dlow);
-  head_.backward(z_, low_, dlow, &dz);
+  if (!fine_) {
+    out_up_.backward(low_, logits_, dlogits, &dlow);
+    head_.backward(z_, low_, dlow, &dz);
+  } else {
+    TensorT<T> dzfull, dfine;
+    head_.backward(zfull_, logits_, dlogits, &dzfull);
+    fine_proj_->backward(fine_map_, zfull_ /* y: unused by a convolution's backward */, dzfull, &dfine);
+    fine_->backward(x_, fine_map_, dfine, nullptr);
+    out_up_.backward(z_, zfull_, dzfull, &dz);
+  }
   // The broadcast bias: the sum of its pixels' gradients (in pixel order).
   dbias.assign({B, H1}, T(0));
   for (int64_t bc = 0; bc < B * H1; ++bc) {

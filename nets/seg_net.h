@@ -10,6 +10,10 @@
 //   decoder (hypercolumn): every pixel of the S/2 grid sees [up(m_1), ..., up(m_K), c] (each map bilinearly resized
 //          to S/2, the context broadcast to every pixel) -> 1x1 convolutions decoder[0], decoder[1], ... (ReLU)
 //          -> 1 logit -> bilinearly resized to S x S
+//   fine branch (`fine` > 0 channels, off by default): a map m_0 of S pixels, two 3x3 stride-1 convolutions of the
+//          input (ReLU), joins the hypercolumn at full resolution: the decoder's first layer sums up(z_{S/2}) and
+//          W_0 m_0 on the S grid and the rest of the decoder runs there, so that the logits resolve the input's
+//          pixels (a chair leg 2 px wide in the input is under one pixel of the S/2 grid)
 //
 // The concatenation is never materialised: the first decoder layer is linear in it, and bilinear resizing is linear
 // and acts per channel, so W [up(m_1); ...; up(m_K); c] + b = sum_k up(W_k m_k) + (W_c c + b). Each map is projected
@@ -39,9 +43,11 @@ struct SegNetConfig {
   std::vector<int> encoder = {16, 32, 64, 96};  ///< channels of the stride-2 stages
   int extra_convs = 1;                     ///< stride-1 3x3 convolutions after each stage's first
   std::vector<int> decoder = {64, 32};     ///< widths of the 1x1 decoder layers before the logit
+  int fine = 0;                            ///< channels of the full-resolution branch (0 = decoder at S/2)
 
+  /// "fine" is written only when the branch is on, so that models without it keep their stored architecture.
   [[nodiscard]] Json to_json() const;
-  /// IoError naming the problem when a field is missing or malformed.
+  /// IoError naming the problem when a field is missing or malformed ("fine" may be missing: 0).
   static SegNetConfig from_json(const Json& j);
   /// InvalidInput naming the problem (empty lists, non-positive widths, a size not divisible by 2^stages).
   void validate() const;
@@ -65,6 +71,11 @@ class SegNetT {
   void init(uint64_t seed) { store_.init(seed); }
   /// Read `master`'s parameter values, keep own activations and gradients (data-parallel replicas).
   void share_parameters(SegNetT& master) { store_.share_values(master.store_); }
+  /// Start a network with the fine branch from one without it whose settings are otherwise the same (InvalidInput
+  /// otherwise): every shared parameter copied, the fine branch's convolutions as init() left them and its
+  /// projection W_0 zero, so that the fine branch starts disconnected and the decoder reads the coarse hypercolumn
+  /// resized to S (its parameters come last in the buffer: the coarse network's are its prefix).
+  void start_from_coarse(const SegNetT& coarse);
 
   /// Logits B x 1 x S x S of images B x 3 x S x S (RGB in [0, 1], letterboxed). training = true keeps what
   /// backward() needs. The reference stays valid until the next forward.
@@ -84,10 +95,12 @@ class SegNetT {
   GlobalPool<T> pool_{PoolKind::kAverage};
   std::unique_ptr<Linear<T>> ctx_;  // context term of the first decoder layer (with its bias)
   Sequential<T> head_;              // ReLU, 1x1 convs ..., logit
-  BilinearResize<T> out_up_;
+  BilinearResize<T> out_up_;        // the S/2 logits to S (no fine branch) or the S/2 sum to S (fine branch)
+  std::unique_ptr<Sequential<T>> fine_;  // fine branch: two 3x3 stride-1 convolutions (null when off)
+  std::unique_ptr<Conv2d<T>> fine_proj_;  // its 1x1 projection W_0 (no bias)
   ParamStore<T> store_;
   // Activations of the last forward.
-  TensorT<T> x_, pooled_, bias_, z_, low_, logits_;
+  TensorT<T> x_, pooled_, bias_, z_, low_, logits_, fine_map_, zfull_;
   std::vector<TensorT<T>> maps_, projected_;
 };
 

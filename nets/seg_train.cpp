@@ -170,9 +170,18 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
   net.init(s.seed);
   if (!s.init.empty()) {
     const auto start = load_seg_model(s.init);
-    if (start->architecture() != net.architecture())
+    if (start->architecture() == net.architecture()) {
+      std::copy(start->params().values.begin(), start->params().values.end(), net.params().values.begin());
+    } else if (s.net.fine > 0 && start->config().fine == 0) {
+      try {
+        net.start_from_coarse(*start);  // the fine branch added to a trained network, disconnected at first
+      } catch (const InvalidInput&) {
+        throw InvalidInput(s.init + ": --init model has other settings than the network being trained (besides the "
+                           "fine branch)");
+      }
+    } else {
       throw InvalidInput(s.init + ": --init model has another architecture than the network being trained");
-    std::copy(start->params().values.begin(), start->params().values.end(), net.params().values.begin());
+    }
   }
   OptimizerSettings os;
   os.beta1 = s.beta1;

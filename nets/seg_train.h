@@ -41,7 +41,8 @@ struct SegTrainSettings {
   int val_items = 128;      ///< validation composites
   int max_shapes = 0;       ///< first N shapes of the training split (0 = all)
   uint64_t seed = 1;
-  std::string init;         ///< start from this segmenter model (same architecture); ignored when resuming
+  std::string init;         ///< start from this segmenter model (same architecture, or the same without the fine
+                            ///< branch: SegNetT::start_from_coarse); ignored when resuming
   bool resume = false;
   double time_limit_seconds = 0;  ///< stop (and save) after this much wall time (0 = none)
 };

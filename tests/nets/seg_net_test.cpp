@@ -30,9 +30,10 @@ SegNetConfig tiny_config() {
 }  // namespace
 
 TEST_CASE("SegNet: every parameter's gradient matches central differences (double)") {
-  for (const int extra : {0, 1}) {
+  for (const auto& [extra, fine] : {std::pair{0, 0}, std::pair{1, 0}, std::pair{1, 2}}) {
     SegNetConfig c = tiny_config();
     c.extra_convs = extra;
+    c.fine = fine;
     SegNetT<double> net(c, true);
     net.init(3);
     Rng rng(11);
@@ -50,9 +51,49 @@ TEST_CASE("SegNet: every parameter's gradient matches central differences (doubl
     std::vector<double> analytic;
     for (size_t i : idx) analytic.push_back(net.params().grads[i]);
     const double err = test::relative_error(analytic, test::numeric_gradient(loss, net.params().values.data(), idx));
-    INFO("extra convs ", extra, " relative error ", err);
+    INFO("extra convs ", extra, " fine ", fine, " relative error ", err);
     CHECK(err < 1e-6);
   }
+}
+
+TEST_CASE("SegNet fine branch: starts from a coarse network disconnected, then resolves single pixels") {
+  SegNetConfig c = tiny_config();
+  SegNetT<double> coarse(c, false);
+  coarse.init(4);
+  c.fine = 3;
+  SegNetT<double> fine(c, false);
+  fine.init(9);
+  fine.start_from_coarse(coarse);
+  // The coarse parameters are the prefix; the projection of the fine map (the last 3 x 5 values) is zero, so the
+  // fine convolutions do not reach the logits until training moves it.
+  REQUIRE(fine.n_params() == coarse.n_params() + (3 * 3 * 3 * 3 + 3) + (3 * 3 * 3 * 3 + 3) + 3 * 5);
+  for (size_t i = 0; i < coarse.n_params(); ++i) REQUIRE(fine.params().values[i] == coarse.params().values[i]);
+  const TensorD x = test::random_tensor({1, 3, 16, 16}, 8, 0.0, 1.0);
+  const TensorD y0 = fine.forward(x, false);
+  for (size_t i = coarse.n_params(); i < fine.n_params() - 15; ++i) fine.params().values[i] += 0.3;
+  CHECK(fine.forward(x, false).data == y0.data);
+  // With the encoder cut (its stages' 168 + 260 parameters zero: every map is zero, the hypercolumn is the context
+  // term's bias everywhere) the logits see the input through the fine branch alone: two 3x3 convolutions, so a pixel
+  // moves the logits within 2 pixels of it and nowhere else; the coarse path would spread it over 4 x 4 blocks.
+  for (size_t i = fine.n_params() - 15; i < fine.n_params(); ++i) fine.params().values[i] = 0.5;
+  for (size_t i = 0; i < 168 + 260; ++i) fine.params().values[i] = 0;
+  TensorD x2 = x;
+  const int64_t at = 8 * 16 + 8;  // pixel (8, 8) of channel 0
+  x2[at] += 0.5;
+  const TensorD a = fine.forward(x, false), b = fine.forward(x2, false);
+  int moved_near = 0;
+  for (int dy = -2; dy <= 2; ++dy)
+    for (int dx = -2; dx <= 2; ++dx) moved_near += b[at + dy * 16 + dx] != a[at + dy * 16 + dx];
+  CHECK(moved_near > 0);
+  for (int y = 0; y < 16; ++y)
+    for (int xx = 0; xx < 16; ++xx)
+      if (std::abs(y - 8) > 2 || std::abs(xx - 8) > 2) CHECK(b[y * 16 + xx] == a[y * 16 + xx]);
+  // Settings other than the branch must agree.
+  SegNetConfig other = c;
+  other.decoder = {4, 3};
+  SegNetT<double> wrong(other, false);
+  CHECK_THROWS_AS(wrong.start_from_coarse(coarse), InvalidInput);
+  CHECK_THROWS_AS(coarse.start_from_coarse(coarse), InvalidInput);
 }
 
 TEST_CASE("SegNet: the context vector reaches every pixel, and items do not mix") {

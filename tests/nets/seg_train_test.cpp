@@ -280,6 +280,41 @@ TEST_CASE("SegTrain: a resumed run gives the bytes of an uninterrupted one, for 
   }
 }
 
+TEST_CASE("SegTrain: --init adds the fine branch to a trained coarse model, and refuses other architectures") {
+  const fs::path root = make_seg_dataset("seg_train_fine");
+  SegTrainSettings coarse = tiny_run(root, "coarse.ckpt");
+  train_seg(coarse);
+  const auto start = load_seg_model(coarse.out);
+  SegTrainSettings s = tiny_run(root, "fine.ckpt");
+  s.net.fine = 4;
+  s.init = coarse.out;
+  s.steps = 1;
+  s.lr = s.lr_min = 1e-12;  // one step that barely moves: the result is the starting point
+  const SegTrainResult r = train_seg(s);
+  const auto fine = load_seg_model(r.model);
+  CHECK(fine->config().fine == 4);
+  REQUIRE(fine->n_params() > start->n_params());
+  for (size_t i = 0; i < start->n_params(); ++i)
+    CHECK(fine->params().values[i] == doctest::Approx(start->params().values[i]).epsilon(1e-6));
+  // The projection of the fine map starts at zero (the last fine x decoder[0] parameters).
+  for (size_t i = fine->n_params() - 4 * 8; i < fine->n_params(); ++i) CHECK(std::abs(fine->params().values[i]) < 1e-9);
+  // Trained further, the fine model segments like any other, at the input's size.
+  s.steps = 6;
+  s.lr = s.lr_min = 3e-3;
+  s.out = (root / "fine2.ckpt").string();
+  const Image p = predict_foreground(*load_seg_model(train_seg(s).model), make_render(0, 0));
+  CHECK(p.width == 137);
+  // A model with other settings than the fine branch's, or a fine model into a coarse one, is refused.
+  SegTrainSettings wide = tiny_run(root, "wide.ckpt");
+  wide.net.decoder = {6};
+  wide.net.fine = 4;
+  wide.init = coarse.out;
+  CHECK_THROWS_AS(train_seg(wide), InvalidInput);
+  SegTrainSettings back = tiny_run(root, "back.ckpt");
+  back.init = r.model;
+  CHECK_THROWS_AS(train_seg(back), InvalidInput);
+}
+
 TEST_CASE("SegTrain CLI: help, and bad inputs fail with one line naming the file") {
   const fs::path root = make_seg_dataset("seg_train_cli");
   const test::CliRun help = test::run_sdfkit("train seg --help");
