@@ -36,7 +36,7 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
   if (dense && given("--no-follow")) throw InvalidInput("--no-follow applies to the adaptive extraction, not to --dense");
-  for (const char* f : {"--segment", "--box", "--seg-model", "--seg-zoom", "--seg-scan"})
+  for (const char* f : {"--segment", "--box", "--seg-model", "--seg-zoom", "--seg-scan", "--seg-agreement"})
     if (mask && given(f)) throw InvalidInput(std::string(f) + " does not apply with --mask (the mask gives the object)");
 }
 
@@ -163,6 +163,9 @@ std::function<int()> setup_recon(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0, 4));
   app.add_option("--seg-scan", o->seg_scan, kSegScanHelp)->capture_default_str()->check(CLI::IsMember({"on", "off"}));
+  app.add_option("--seg-agreement", o->s.framing.grabcut_min_agreement, kSegAgreementHelp)
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--box", o->box, "X,Y,W,H: the object lies inside this pixel box (GrabCut's seed; outside is background)");
   app.add_option("--framing", o->framing,
                  "auto = keep an image framed like the training renders (square, object centred at their scale), "

@@ -71,6 +71,9 @@ std::function<int()> setup_segment(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0, 4));
   app.add_option("--seg-scan", o->seg_scan, kSegScanHelp)->capture_default_str()->check(CLI::IsMember({"on", "off"}));
+  app.add_option("--seg-agreement", o->framing.grabcut_min_agreement, kSegAgreementHelp)
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--box", o->box, "X,Y,W,H: the object lies inside this pixel box (single input image)");
   app.add_option("--truth", o->truth,
                  "score the masks: a folder of reference masks <name>.png or <name>.mask.png (their alpha when they "

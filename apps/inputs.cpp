@@ -32,6 +32,11 @@ const char* const kSegScanHelp =
     "objects the whole-image reading misses for a salient part of a photo; docs/recon.md); off: the whole image's "
     "reading alone";
 
+const char* const kSegAgreementHelp =
+    "with --segment auto: GrabCut's refinement of the segmenter's mask is kept only when the two masks agree at least "
+    "this much (IoU), else the segmenter's mask as it is (GrabCut strays on busy photos: background of the object's "
+    "colours taken in, thin parts dropped); 0 = GrabCut's whenever it keeps an object";
+
 bool seg_scan_setting(const CLI::App& app, const std::string& value, int zoom_rounds) {
   if (value == "on" && zoom_rounds == 0) {
     if (app.get_option("--seg-scan")->count() > 0)
@@ -98,6 +103,8 @@ void configure_segmenter(const CLI::App& app, FramingSettings& framing, const st
     if (app.get_option(f)->count() > 0 &&
         (framing.segment == Segmentation::kGrabCut || framing.segment == Segmentation::kNone))
       throw InvalidInput(std::string(f) + " applies with --segment net or auto");
+  if (app.get_option("--seg-agreement")->count() > 0 && framing.segment != Segmentation::kAuto)
+    throw InvalidInput("--seg-agreement applies with --segment auto (GrabCut refining the segmenter's mask)");
   framing.segmenter_scan = seg_scan_setting(app, seg_scan, framing.segmenter_zoom_rounds);
   if (load && (framing.segment == Segmentation::kNet ||
                (framing.segment == Segmentation::kAuto && !seg_model.empty() &&

@@ -657,11 +657,13 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
       if (st.segment == Segmentation::kAuto) {
         // GrabCut seeded with the network's mask: the network tells which object the image is about, GrabCut
         // follows its edges in this image's colours. When GrabCut keeps nothing of it (a thin object whose colours
-        // the background shares), the network's mask as it is; only when the network found no object, the
-        // rectangle's GrabCut (then by colour), which on a cluttered photo rarely finds the object either.
+        // the background shares) or strays far from it (background of the object's colours taken in, thin parts
+        // dropped: their IoU under grabcut_min_agreement), the network's mask as it is; only when the network found
+        // no object, the rectangle's GrabCut (then by colour), which on a cluttered photo rarely finds the object
+        // either.
         const PixelBox rect = grabcut_rect(st, W, H, what);
         Image cut = grabcut_mask(rgb, rect, st.grabcut_max_side, st.grabcut_iterations, GrabCutSeed::kMask, &f.mask);
-        if (any_over_half(cut)) {
+        if (any_over_half(cut) && mask_iou(cut, f.mask) >= st.grabcut_min_agreement) {
           f.mask = std::move(cut);
           f.mask_source = "net+grabcut";
         } else if (any_over_half(f.mask)) {

@@ -96,6 +96,12 @@ struct FramingSettings {
   /// p > (lo + hi) / 2 = 0.7 (the object's pixels), soft edges kept between lo and hi. 0.7 rather than 0.5: on the
   /// validation composites of docs/results/framing.md the masks GrabCut makes from it match the objects better.
   double segmenter_low = 0.5, segmenter_high = 0.9;
+  /// kAuto with the segmenter: GrabCut's mask, seeded with the network's, replaces it only when the two agree at
+  /// least this much (IoU of their pixels over 0.5); otherwise the network's mask is kept (source "net"). GrabCut
+  /// follows the edges of large objects in the photo's colours, but on a busy photo it also swallows background the
+  /// colour of the object or drops thin parts whose colours the background shares. 0 = GrabCut's mask whenever it
+  /// keeps an object.
+  double grabcut_min_agreement = 0.6;
   /// Rounds of zooming the segmenter in on its own answer (zoomed_foreground; 0 = read the whole image once).
   int segmenter_zoom_rounds = 2;
   /// The object's box's longer side / the side of the square each round reads.

@@ -89,11 +89,31 @@ TEST_CASE("recon framing with the segmenter: net and auto use it, the ramp keeps
     return static_cast<double>(inter) / static_cast<double>(uni);
   };
   st.segment = Segmentation::kNet;
-  CHECK(disc_iou(frame_input(photo, nullptr, st, "photo.png").mask) < 0.5);
+  const FramedInput square = frame_input(photo, nullptr, st, "photo.png");
+  CHECK(disc_iou(square.mask) < 0.5);
   st.segment = Segmentation::kAuto;
+  // GrabCut's disc departs too far from the network's square (IoU 0.31, under grabcut_min_agreement 0.6): on a busy
+  // photo that is GrabCut straying, and the network's mask is kept as it is.
+  REQUIRE(st.grabcut_min_agreement == 0.6);
+  const FramedInput kept = frame_input(photo, nullptr, st, "photo.png");
+  CHECK(kept.mask_source == "net");
+  CHECK(kept.mask.data == square.mask.data);
+  // Without the agreement test GrabCut's mask replaces it.
+  st.grabcut_min_agreement = 0;
   const FramedInput refined = frame_input(photo, nullptr, st, "photo.png");
   CHECK(refined.mask_source == "net+grabcut");
   CHECK(disc_iou(refined.mask) > 0.9);
+  st.grabcut_min_agreement = 0.6;
+  // A square that hugs the disc (side 50: IoU 0.79 with it): GrabCut's trimmed disc agrees enough and is kept.
+  st.segmenter = [](const Image& rgb) {
+    Image p(rgb.width, rgb.height, 1, 0.1f);
+    for (int y = 35; y < 85; ++y)
+      for (int x = 75; x < 125; ++x) p.at(x, y) = 0.9f;
+    return p;
+  };
+  const FramedInput hugging = frame_input(photo, nullptr, st, "photo.png");
+  CHECK(hugging.mask_source == "net+grabcut");
+  CHECK(disc_iou(hugging.mask) > 0.9);
   // A network that sees nothing: auto falls back to GrabCut from the rectangle (--segment grabcut's mask).
   Image textured = photo;  // on a smooth texture GrabCut's rectangle finds the disc
   for (int y = 0; y < 120; ++y)
@@ -290,6 +310,13 @@ TEST_CASE("recon --segment net: the model is loaded from --seg-model, a missing 
   const test::CliRun zoom_far = test::run_sdfkit(base + " --seg-zoom 5");
   CHECK(zoom_far.code != 0);
   CHECK(zoom_far.err.find("--seg-zoom") != std::string::npos);
+  // --seg-agreement: GrabCut refining the network's mask, so --segment auto only; an IoU in [0, 1].
+  const test::CliRun agree_net = test::run_sdfkit(base + " --segment net --seg-agreement 0.5");
+  CHECK(agree_net.code == 1);
+  CHECK(agree_net.err.find("--seg-agreement applies with --segment auto") != std::string::npos);
+  const test::CliRun agree_far = test::run_sdfkit(base + " --seg-agreement 1.5");
+  CHECK(agree_far.code != 0);
+  CHECK(agree_far.err.find("--seg-agreement") != std::string::npos);
 }
 
 namespace {
