@@ -85,9 +85,9 @@ bool seg_scan_setting(const CLI::App& app, const std::string& value, int zoom_ro
 extern const char* const kSegAgreementHelp;
 
 /// recon's and segment's segmenter flags: --seg-model, --seg-zoom and --seg-scan are errors with --segment grabcut or
-/// none, --seg-agreement with any but auto; sets framing.segmenter_scan (seg_scan_setting) and, when `load` (recon: no --mask) and the segmentation reads
-/// the network (net, or auto with its model named or present), framing.segmenter and segmenter_batch
-/// (use_shared_segmenter).
+/// none, --seg-agreement with any but auto; sets framing.segmenter_scan (seg_scan_setting) and, when `load` (recon:
+/// no --mask) and the segmentation reads the network (net, or auto with its model named or present),
+/// framing.segmenter and segmenter_batch (use_shared_segmenter).
 void configure_segmenter(const CLI::App& app, FramingSettings& framing, const std::string& seg_model,
                          const std::string& seg_scan, bool load);
 

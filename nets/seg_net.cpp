@@ -125,7 +125,7 @@ template <typename T>
 void SegNetT<T>::start_from_coarse(const SegNetT& coarse) {
   SegNetConfig expected = c_;
   expected.fine = 0;
-  require(c_.fine > 0 && coarse.config().fine == 0 && coarse.config().to_json() == expected.to_json(),
+  require(c_.fine > 0 && coarse.config().to_json() == expected.to_json(),
           "segmenter: starting the fine branch needs a network without it and otherwise the same settings");
   const auto& from = coarse.params().values;
   require(from.size() + fine_->n_params() + fine_proj_->n_params() == store_.size(),
