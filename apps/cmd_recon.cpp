@@ -36,7 +36,7 @@ void check_flags_apply(const CLI::App& app, bool estimate, bool refine, bool loc
     if (!estimate && given(f)) throw InvalidInput(std::string(f) + " applies with --cam est (the camera is given)");
   if (dense && given("--safety")) throw InvalidInput("--safety applies to the adaptive extraction, not to --dense");
   if (dense && given("--no-follow")) throw InvalidInput("--no-follow applies to the adaptive extraction, not to --dense");
-  for (const char* f : {"--segment", "--box", "--seg-model", "--seg-zoom", "--seg-scan", "--seg-agreement"})
+  for (const char* f : {"--segment", "--box", "--seg-model", "--seg-zoom", "--seg-scan", "--seg-agreement", "--seg-sure"})
     if (mask && given(f)) throw InvalidInput(std::string(f) + " does not apply with --mask (the mask gives the object)");
 }
 
@@ -102,7 +102,7 @@ int fuse_views(const Reconstructor& rec, const std::vector<std::string>& inputs,
 std::function<int()> setup_recon(CLI::App& app) {
   struct Opts {
     std::string input, out, model, photo_model, pose_model, photo_pose_model, seg_model,
-        cam = "est", mask, format = "obj", segment = "auto", seg_scan = "on", framing = "auto", box,
+        cam = "est", mask, format = "obj", segment = "auto", seg_scan = "on", seg_sure, framing = "auto", box,
         fit_centre = "auto";
     std::string pose_distances = "off", pose_tta = "mirror", pose_zoom_tta = zoom_list(kDefaultPoseZoomTta);
     ReconSettings s;
@@ -166,6 +166,8 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_option("--seg-agreement", o->s.framing.grabcut_min_agreement, kSegAgreementHelp)
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
+  o->seg_sure = seg_sure_default(o->s.framing);
+  app.add_option("--seg-sure", o->seg_sure, kSegSureHelp)->capture_default_str();
   app.add_option("--box", o->box, "X,Y,W,H: the object lies inside this pixel box (GrabCut's seed; outside is background)");
   app.add_option("--framing", o->framing,
                  "auto = keep an image framed like the training renders (square, object centred at their scale), "
@@ -313,7 +315,7 @@ std::function<int()> setup_recon(CLI::App& app) {
     o->s.preview = !o->no_preview;
     o->s.refine_joint = o->refine_mode == "joint";
     o->s.framing.segment = parse_segmentation(o->segment);
-    configure_segmenter(app, o->s.framing, o->seg_model, o->seg_scan, o->mask.empty());
+    configure_segmenter(app, o->s.framing, o->seg_model, o->seg_scan, o->seg_sure, o->mask.empty());
     o->s.framing.reframe = parse_reframing(o->framing);
     o->s.framing_fit_centre = o->fit_centre == "camera"  ? ReconSettings::FitCentre::kCamera
                               : o->fit_centre == "shape" ? ReconSettings::FitCentre::kShape

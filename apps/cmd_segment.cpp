@@ -39,7 +39,7 @@ double median_of(std::vector<double> v) {
 
 std::function<int()> setup_segment(CLI::App& app) {
   struct Opts {
-    std::string input, out, segment = "auto", seg_model, box, truth, seg_scan = "on";
+    std::string input, out, segment = "auto", seg_model, box, truth, seg_scan = "on", seg_sure;
     int jobs = 1;
     bool json = false;
     FramingSettings framing;
@@ -74,6 +74,8 @@ std::function<int()> setup_segment(CLI::App& app) {
   app.add_option("--seg-agreement", o->framing.grabcut_min_agreement, kSegAgreementHelp)
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
+  o->seg_sure = seg_sure_default(o->framing);
+  app.add_option("--seg-sure", o->seg_sure, kSegSureHelp)->capture_default_str();
   app.add_option("--box", o->box, "X,Y,W,H: the object lies inside this pixel box (single input image)");
   app.add_option("--truth", o->truth,
                  "score the masks: a folder of reference masks <name>.png or <name>.mask.png (their alpha when they "
@@ -101,7 +103,7 @@ std::function<int()> setup_segment(CLI::App& app) {
       throw InvalidInput("--truth " + o->truth + ": give a folder of reference masks for several images");
     o->framing.segment = parse_segmentation(o->segment);
     if (!o->box.empty()) o->framing.box = parse_pixel_box(o->box);
-    configure_segmenter(app, o->framing, o->seg_model, o->seg_scan, true);
+    configure_segmenter(app, o->framing, o->seg_model, o->seg_scan, o->seg_sure, true);
 
     const BatchOutputs outs = batch_outputs(inputs, many, o->out, ".mask.png", "segmented");
     long nfail = 0;

@@ -84,12 +84,19 @@ bool seg_scan_setting(const CLI::App& app, const std::string& value, int zoom_ro
 /// Help text of --seg-agreement (recon, segment: FramingSettings::grabcut_min_agreement).
 extern const char* const kSegAgreementHelp;
 
+/// Help text of --seg-sure (recon, segment: FramingSettings::grabcut_sure_object, grabcut_sure_background), its
+/// default text from the settings, and the settings from its value when given ("P,F" or "none"; InvalidInput for
+/// another).
+extern const char* const kSegSureHelp;
+std::string seg_sure_default(const FramingSettings& framing);
+void seg_sure_setting(const CLI::App& app, const std::string& value, FramingSettings& framing);
+
 /// recon's and segment's segmenter flags: --seg-model, --seg-zoom and --seg-scan are errors with --segment grabcut or
-/// none, --seg-agreement with any but auto; sets framing.segmenter_scan (seg_scan_setting) and, when `load` (recon:
-/// no --mask) and the segmentation reads the network (net, or auto with its model named or present),
-/// framing.segmenter and segmenter_batch (use_shared_segmenter).
+/// none, --seg-agreement and --seg-sure with any but auto; sets framing.segmenter_scan (seg_scan_setting), the sure
+/// labels (seg_sure_setting) and, when `load` (recon: no --mask) and the segmentation reads the network (net, or
+/// auto with its model named or present), framing.segmenter and segmenter_batch (use_shared_segmenter).
 void configure_segmenter(const CLI::App& app, FramingSettings& framing, const std::string& seg_model,
-                         const std::string& seg_scan, bool load);
+                         const std::string& seg_scan, const std::string& seg_sure, bool load);
 
 class ProgressBar;
 

@@ -46,6 +46,34 @@ bool seg_scan_setting(const CLI::App& app, const std::string& value, int zoom_ro
   return value == "on";
 }
 
+const char* const kSegSureHelp =
+    "P,F with --segment auto: labels GrabCut may not change when it refines the segmenter's mask: the pixels where "
+    "the network's probability is at least P stay object, the pixels farther from its object than F times the "
+    "object's size stay background; 'none' = GrabCut may relabel every pixel";
+
+std::string seg_sure_default(const FramingSettings& framing) {
+  std::ostringstream o;
+  o << framing.grabcut_sure_object << ',' << framing.grabcut_sure_background;
+  return o.str();
+}
+
+void seg_sure_setting(const CLI::App& app, const std::string& value, FramingSettings& framing) {
+  if (app.get_option("--seg-sure")->count() == 0) return;
+  if (value == "none") {
+    framing.grabcut_sure_object = 2.0;
+    framing.grabcut_sure_background = 0.0;
+    return;
+  }
+  double p = 0, f = 0;
+  char comma = 0;
+  std::istringstream in(value);
+  std::string rest;
+  if (!(in >> p >> comma >> f) || comma != ',' || (in >> rest) || !(p > 0.5 && p <= 1.0) || !(f > 0 && f <= 10))
+    throw InvalidInput("--seg-sure '" + value + "': give P,F with 0.5 < P <= 1 and 0 < F <= 10 (e.g. 0.97,0.15), or none");
+  framing.grabcut_sure_object = p;
+  framing.grabcut_sure_background = f;
+}
+
 bool is_image_path(const std::string& path) {
   const std::string e = extension_of(path);
   return std::find(kImageExtensions.begin(), kImageExtensions.end(), e) != kImageExtensions.end();
@@ -98,14 +126,16 @@ void use_shared_segmenter(FramingSettings& framing, const std::string& model_pat
 }
 
 void configure_segmenter(const CLI::App& app, FramingSettings& framing, const std::string& seg_model,
-                         const std::string& seg_scan, bool load) {
+                         const std::string& seg_scan, const std::string& seg_sure, bool load) {
   for (const char* f : {"--seg-model", "--seg-zoom", "--seg-scan"})
     if (app.get_option(f)->count() > 0 &&
         (framing.segment == Segmentation::kGrabCut || framing.segment == Segmentation::kNone))
       throw InvalidInput(std::string(f) + " applies with --segment net or auto");
-  if (app.get_option("--seg-agreement")->count() > 0 && framing.segment != Segmentation::kAuto)
-    throw InvalidInput("--seg-agreement applies with --segment auto (GrabCut refining the segmenter's mask)");
+  for (const char* f : {"--seg-agreement", "--seg-sure"})
+    if (app.get_option(f)->count() > 0 && framing.segment != Segmentation::kAuto)
+      throw InvalidInput(std::string(f) + " applies with --segment auto (GrabCut refining the segmenter's mask)");
   framing.segmenter_scan = seg_scan_setting(app, seg_scan, framing.segmenter_zoom_rounds);
+  seg_sure_setting(app, seg_sure, framing);
   if (load && (framing.segment == Segmentation::kNet ||
                (framing.segment == Segmentation::kAuto && !seg_model.empty() &&
                 (app.get_option("--seg-model")->count() > 0 || fs::exists(seg_model)))))

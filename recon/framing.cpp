@@ -238,11 +238,16 @@ Image crop_network_image(const Image& rgb, const FramedInput& f) {
 }  // namespace
 
 Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int iterations, GrabCutSeed seed,
-                   const Image* seed_mask) {
+                   const Image* seed_mask, const Image* sure_object, double sure_background_px) {
   require(seed != GrabCutSeed::kMask ||
               (seed_mask != nullptr && seed_mask->width == rgb.width && seed_mask->height == rgb.height &&
                seed_mask->channels == 1),
           "grabcut_mask: the mask seed needs a 1-channel mask of the image's size");
+  require(sure_object == nullptr || (sure_object->width == rgb.width && sure_object->height == rgb.height &&
+                                     sure_object->channels == 1),
+          "grabcut_mask: the sure-object mask must have 1 channel and the image's size");
+  require(std::isfinite(sure_background_px) && sure_background_px >= 0,
+          "grabcut_mask: the sure-background distance must be finite and non-negative");
   const int W = rgb.width, H = rgb.height;
   const double scale = std::min(1.0, static_cast<double>(max_side) / std::max(W, H));
   cv::Mat full(H, W, CV_8UC3);
@@ -273,15 +278,33 @@ Image grabcut_mask(const Image& rgb, const PixelBox& rect, int max_side, int ite
   if (seed == GrabCutSeed::kMask) {
     // Inside the rectangle: the mask's object (over 0.5 at the pixel's centre in the input) probably object, the
     // rest probably background; outside it background. No object in the seed: no object.
+    // With sure labels: the seed's pixels that `sure_object` also has are object, and pixels farther than
+    // sure_background_px from the seed's object background, whatever their colours.
     bool any = false;
     for (int y = r.y; y < r.y + r.height; ++y)
       for (int x = r.x; x < r.x + r.width; ++x) {
         const int X = std::min(W - 1, static_cast<int>((x + 0.5) / scale));
         const int Y = std::min(H - 1, static_cast<int>((y + 0.5) / scale));
         const bool in = seed_mask->at(X, Y) > 0.5f;
-        labels.at<uchar>(y, x) = in ? cv::GC_PR_FGD : cv::GC_PR_BGD;
+        const bool sure = in && sure_object != nullptr && sure_object->at(X, Y) > 0.5f;
+        labels.at<uchar>(y, x) = sure ? cv::GC_FGD : in ? cv::GC_PR_FGD : cv::GC_PR_BGD;
         any = any || in;
       }
+    if (any && sure_background_px > 0) {
+      // Distance (small-image pixels) of every pixel from the seed's object: 0 on it.
+      cv::Mat outside(small.size(), CV_8UC1);
+      for (int y = 0; y < small.rows; ++y)
+        for (int x = 0; x < small.cols; ++x) {
+          const uchar l = labels.at<uchar>(y, x);
+          outside.at<uchar>(y, x) = (l == cv::GC_FGD || l == cv::GC_PR_FGD) ? 0 : 255;
+        }
+      cv::Mat dist;
+      cv::distanceTransform(outside, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+      const float band = static_cast<float>(sure_background_px * scale);
+      for (int y = r.y; y < r.y + r.height; ++y)
+        for (int x = r.x; x < r.x + r.width; ++x)
+          if (dist.at<float>(y, x) > band) labels.at<uchar>(y, x) = cv::GC_BGD;
+    }
     if (any) grabcut(cv::GC_INIT_WITH_MASK);
   } else if (seed != GrabCutSeed::kColour) {
     grabcut(cv::GC_INIT_WITH_RECT);
@@ -654,7 +677,12 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
         f.mask.data[i] = static_cast<float>(std::clamp(v, 0.0, 1.0));
       }
       f.mask_source = "net";
-      if (st.segment == Segmentation::kAuto) {
+      long marked = 0;
+      for (const float v : f.mask.data) marked += v > 0.5f;
+      // A network's mask covering nearly the whole image is refused below (no object stands out); GrabCut seeded
+      // with it, its confident pixels sure object, would only trim the margin and hide that.
+      const bool stands_out = static_cast<double>(marked) <= kMaxObjectCover * static_cast<double>(W) * H;
+      if (st.segment == Segmentation::kAuto && stands_out) {
         // GrabCut seeded with the network's mask: the network tells which object the image is about, GrabCut
         // follows its edges in this image's colours. When GrabCut keeps nothing of it (a thin object whose colours
         // the background shares) or strays far from it (background of the object's colours taken in, thin parts
@@ -662,7 +690,24 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
         // no object, the rectangle's GrabCut (then by colour), which on a cluttered photo rarely finds the object
         // either.
         const PixelBox rect = grabcut_rect(st, W, H, what);
-        Image cut = grabcut_mask(rgb, rect, st.grabcut_max_side, st.grabcut_iterations, GrabCutSeed::kMask, &f.mask);
+        Image sure_object;
+        if (st.grabcut_sure_object <= 1.0) {
+          sure_object = Image(W, H, 1);
+          for (size_t i = 0; i < p.data.size(); ++i)
+            sure_object.data[i] = std::isfinite(p.data[i]) && p.data[i] >= st.grabcut_sure_object ? 1.f : 0.f;
+        }
+        double band_px = 0;
+        if (st.grabcut_sure_background > 0) {
+          int x0 = W, y0 = H, x1 = -1, y1 = -1;
+          for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x)
+              if (f.mask.at(x, y) > 0.5f) {
+                x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+              }
+          if (x1 >= 0) band_px = st.grabcut_sure_background * std::max(x1 - x0 + 1, y1 - y0 + 1);
+        }
+        Image cut = grabcut_mask(rgb, rect, st.grabcut_max_side, st.grabcut_iterations, GrabCutSeed::kMask, &f.mask,
+                                 sure_object.empty() ? nullptr : &sure_object, band_px);
         if (any_over_half(cut) && mask_iou(cut, f.mask) >= st.grabcut_min_agreement) {
           f.mask = std::move(cut);
           f.mask_source = "net+grabcut";

@@ -141,6 +141,8 @@ TEST_CASE("segment: bad arguments are one-line errors") {
         "--seg-zoom applies with --segment net or auto");
   fails("segment " + in + " -o " + (dir / "m.png").string() + " --segment grabcut --seg-agreement 0.5",
         "--seg-agreement applies with --segment auto");
+  fails("segment " + in + " -o " + (dir / "m.png").string() + " --segment grabcut --seg-sure none",
+        "--seg-sure applies with --segment auto");
   fails("segment " + in + " -o " + (dir / "m.png").string() + " --truth " + (dir / "nothing.png").string(),
         "nothing.png: no such file");
   // A reference of another size: the item fails naming both files (exit 1: the only image failed).

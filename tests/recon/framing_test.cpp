@@ -423,6 +423,54 @@ TEST_CASE("framing: GrabCut seeded by colour finds an object whose colour the ba
   CHECK(*std::max_element(none.data.begin(), none.data.end()) == 0.f);
 }
 
+TEST_CASE("framing: GrabCut's sure labels keep a far blob of the object's colour out and a background-coloured part in") {
+  // A noisy blue-green checker; the object: an orange disc with a band of the checker's colours across it; far from
+  // it, a second orange disc. The seed (the network's mask) is the first disc.
+  Image im(320, 224, 3);
+  Rng rng(17);
+  for (int y = 0; y < 224; ++y)
+    for (int x = 0; x < 320; ++x) {
+      const bool dark = ((x / 10) + (y / 10)) % 2 == 0;
+      const float n = static_cast<float>(rng.uniform(-0.04, 0.04));
+      im.at(x, y, 0) = 0.1f + n;
+      im.at(x, y, 1) = (dark ? 0.35f : 0.6f) + n;
+      im.at(x, y, 2) = (dark ? 0.45f : 0.75f) + n;
+    }
+  const float orange[3] = {0.85f, 0.25f, 0.1f};
+  const double cx = 100, cy = 110, r = 45;
+  paint_ellipse(im, cx, cy, r, r, orange);
+  paint_ellipse(im, 260, 60, 25, 25, orange);
+  for (int y = 104; y < 116; ++y)
+    for (int x = 55; x < 146; ++x)
+      if ((x - cx) * (x - cx) + (y + 0.5 - cy) * (y + 0.5 - cy) <= r * r)
+        for (int c = 0; c < 3; ++c) im.at(x, y, c) = im.at(x, y + 60, c);  // the checker, band included
+  Image seed(320, 224, 1);
+  for (int y = 0; y < 224; ++y)
+    for (int x = 0; x < 320; ++x)
+      seed.at(x, y) = (x + 0.5 - cx) * (x + 0.5 - cx) + (y + 0.5 - cy) * (y + 0.5 - cy) <= r * r ? 1.f : 0.f;
+  const PixelBox rect{10, 7, 300, 210};
+  const auto coverage = [](const Image& m, int x0, int y0, int x1, int y1) {
+    double s = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) s += m.at(x, y);
+    return s / ((x1 - x0) * (y1 - y0));
+  };
+  // Without sure labels GrabCut follows the colours: the far disc joins the object, the band leaves it.
+  const Image free = grabcut_mask(im, rect, 400, 5, GrabCutSeed::kMask, &seed);
+  CHECK(coverage(free, 250, 50, 270, 70) > 0.9);
+  CHECK(coverage(free, 80, 106, 120, 114) < 0.1);
+  // Sure background beyond 20 px of the seed: the far disc stays out; sure object on the seed: the band stays in.
+  const Image sure = grabcut_mask(im, rect, 400, 5, GrabCutSeed::kMask, &seed, &seed, 20);
+  CHECK(coverage(sure, 250, 50, 270, 70) == 0.0);
+  CHECK(coverage(sure, 80, 106, 120, 114) == 1.0);
+  CHECK(mask_iou(sure, cx, cy, r, r) > 0.97);
+  // Sure labels are the only change: without them (no sure object, distance 0) the mask is the free one.
+  CHECK(grabcut_mask(im, rect, 400, 5, GrabCutSeed::kMask, &seed, nullptr, 0).data == free.data);
+  // A sure-object mask of the wrong size is refused.
+  const Image small(10, 10, 1);
+  CHECK_THROWS(grabcut_mask(im, rect, 400, 5, GrabCutSeed::kMask, &seed, &small, 0));
+}
+
 TEST_CASE("mask_iou: overlapping rectangles in alpha and grey masks, closed form") {
   // a: columns 2-9, rows 1-4 (32 px) as an RGBA mask's alpha; b: columns 6-13, rows 3-6 (32 px) as a grey mask.
   Image a(16, 8, 4, 0.0f), b(16, 8, 1, 0.0f);

@@ -152,12 +152,19 @@ TEST_CASE("recon framing with the segmenter: net and auto use it, the ramp keeps
                                     GrabCutSeed::kMask, &line_seed);
   REQUIRE(std::none_of(seeded.data.begin(), seeded.data.end(), [](float v) { return v > 0.5f; }));
   REQUIRE(disc_iou(frame_input(lined, nullptr, gc, "lined.png").mask) > 0.8);  // what the rectangle finds
-  const FramedInput thin = frame_input(lined, nullptr, st, "lined.png");
-  CHECK(thin.mask_source == "net");
-  CHECK(thin.mask.at(40, 100) == 1.0f);
-  CHECK(thin.mask.at(100, 60) == 0.0f);
-  CHECK(thin.object_box.x == 20);
-  CHECK(thin.object_box.w == 40);
+  // With the sure labels (the default) the strip's pixels, at probability 0.95, stay object in GrabCut's mask;
+  // without them GrabCut drops the strip and the network's mask is kept as it is.
+  for (const bool sure : {true, false}) {
+    CAPTURE(sure);
+    FramingSettings t = st;
+    if (!sure) t.grabcut_sure_object = 2.0, t.grabcut_sure_background = 0.0;
+    const FramedInput thin = frame_input(lined, nullptr, t, "lined.png");
+    CHECK(thin.mask_source == (sure ? "net+grabcut" : "net"));
+    CHECK(thin.mask.at(40, 100) == 1.0f);
+    CHECK(thin.mask.at(100, 60) == 0.0f);
+    CHECK(thin.object_box.x == 20);
+    CHECK(thin.object_box.w == 40);
+  }
   st.segmenter = disc_probability;
   // A plain background is still found without the network in auto mode.
   Image plain(160, 120, 3, 1.0f);
@@ -173,6 +180,52 @@ TEST_CASE("recon framing with the segmenter: net and auto use it, the ramp keeps
   CHECK_THROWS_AS(frame_input(photo, nullptr, st, "photo.png"), InvalidInput);
   CHECK(parse_segmentation("net") == Segmentation::kNet);
   CHECK(segmentation_name(Segmentation::kNet) == "net");
+}
+
+TEST_CASE("recon framing: GrabCut's sure labels (--seg-sure) hold the network's confident object and far background") {
+  const Image photo = cluttered_photo();
+  FramingSettings st;
+  st.segment = Segmentation::kAuto;
+  st.segmenter_zoom_rounds = 0;
+  st.grabcut_min_agreement = 0;  // GrabCut's mask whenever it keeps an object: the sure labels decide alone
+  const auto count = [](const Image& m, int x0, int y0, int x1, int y1) {
+    int n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) n += m.at(x, y) > 0.5f;
+    return n;
+  };
+  // A confident rough network: a square 1.6 times the disc at probability 0.99. Free, GrabCut cuts it down to the
+  // disc; with pixels at 0.97 and over sure object, the square stays whole.
+  st.segmenter = [](const Image& rgb) {
+    Image p(rgb.width, rgb.height, 1, 0.1f);
+    for (int y = 20; y < 100; ++y)
+      for (int x = 60; x < 140; ++x) p.at(x, y) = 0.99f;
+    return p;
+  };
+  st.grabcut_sure_object = 2.0;  // none
+  st.grabcut_sure_background = 0;
+  const FramedInput free = frame_input(photo, nullptr, st, "photo.png");
+  CHECK(free.mask_source == "net+grabcut");
+  CHECK(count(free.mask, 62, 22, 70, 30) == 0);  // a corner of the square, off the disc
+  st.grabcut_sure_object = 0.97;
+  const FramedInput held = frame_input(photo, nullptr, st, "photo.png");
+  CHECK(held.mask_source == "net+grabcut");
+  CHECK(count(held.mask, 60, 20, 140, 100) == 80 * 80);
+  // A second red disc far from the network's object: free, GrabCut takes it in with the object's colour; beyond 0.3
+  // times the object's size (15 px) it is sure background.
+  Image two = photo;
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x)
+      if ((x - 30) * (x - 30) + (y - 30) * (y - 30) < 12 * 12) two.at(x, y, 0) = 0.9f, two.at(x, y, 1) = two.at(x, y, 2) = 0.1f;
+  st.segmenter = disc_probability;
+  st.grabcut_sure_object = 2.0;
+  st.grabcut_sure_background = 0;
+  const FramedInput taken = frame_input(two, nullptr, st, "two.png");
+  CHECK(count(taken.mask, 24, 24, 36, 36) > 100);
+  st.grabcut_sure_background = 0.3;
+  const FramedInput apart = frame_input(two, nullptr, st, "two.png");
+  CHECK(count(apart.mask, 18, 18, 42, 42) == 0);
+  CHECK(count(apart.mask, 90, 50, 110, 70) == 400);
 }
 
 namespace {
@@ -317,6 +370,15 @@ TEST_CASE("recon --segment net: the model is loaded from --seg-model, a missing 
   const test::CliRun agree_far = test::run_sdfkit(base + " --seg-agreement 1.5");
   CHECK(agree_far.code != 0);
   CHECK(agree_far.err.find("--seg-agreement") != std::string::npos);
+  // --seg-sure: the same; P,F within their ranges or none.
+  const test::CliRun sure_net = test::run_sdfkit(base + " --segment net --seg-sure 0.9,0.05");
+  CHECK(sure_net.code == 1);
+  CHECK(sure_net.err.find("--seg-sure applies with --segment auto") != std::string::npos);
+  for (const char* bad : {"0.4,0.05", "0.9", "0.9,0", "0.9;0.05", "0.9,0.05,1", "none,0.05"}) {
+    const test::CliRun r = test::run_sdfkit(base + " --seg-sure '" + bad + "'");
+    CHECK_MESSAGE(r.code == 1, bad);
+    CHECK_MESSAGE(r.err.find("--seg-sure '" + std::string(bad) + "': give P,F") != std::string::npos, r.err);
+  }
 }
 
 namespace {
