@@ -133,6 +133,12 @@ int drop_specks(Image& mask, double fraction) {
   return kept;
 }
 
+/// Whether `marked` object pixels of a width x height image leave the object standing out: frame_input refuses
+/// a mask covering more than kMaxObjectCover of the image.
+bool stands_out(long marked, int width, int height) {
+  return static_cast<double>(marked) <= kMaxObjectCover * static_cast<double>(width) * height;
+}
+
 /// Box of the pixels with coverage over 0.5 (w = 0 when there is none).
 PixelBox hard_box(const Image& mask, long* count) {
   int x0 = mask.width, y0 = mask.height, x1 = -1, y1 = -1;
@@ -590,8 +596,7 @@ Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter,
   for (const float v : cands[0].p.data) marked += v > 0.5f;
   // An answer covering nearly the whole image (frame_input refuses it: no object stands out) is kept as it is:
   // windows of such an image would each find a window-sized "object" and agree on one.
-  const bool stands_out = static_cast<double>(marked) <= kMaxObjectCover * static_cast<double>(W) * H;
-  if (windows_at.empty() || !stands_out) {
+  if (windows_at.empty() || !stands_out(marked, W, H)) {
     if (zooms != nullptr) *zooms = cands[0].zooms;
     return std::move(cands[0].p);
   }
@@ -678,11 +683,10 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
       }
       f.mask_source = "net";
       long marked = 0;
-      for (const float v : f.mask.data) marked += v > 0.5f;
+      const PixelBox net_box = hard_box(f.mask, &marked);
       // A network's mask covering nearly the whole image is refused below (no object stands out); GrabCut seeded
       // with it, its confident pixels sure object, would only trim the margin and hide that.
-      const bool stands_out = static_cast<double>(marked) <= kMaxObjectCover * static_cast<double>(W) * H;
-      if (st.segment == Segmentation::kAuto && stands_out) {
+      if (st.segment == Segmentation::kAuto && stands_out(marked, W, H)) {
         // GrabCut seeded with the network's mask: the network tells which object the image is about, GrabCut
         // follows its edges in this image's colours. When GrabCut keeps nothing of it (a thin object whose colours
         // the background shares) or strays far from it (background of the object's colours taken in, thin parts
@@ -696,16 +700,7 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
           for (size_t i = 0; i < p.data.size(); ++i)
             sure_object.data[i] = std::isfinite(p.data[i]) && p.data[i] >= st.grabcut_sure_object ? 1.f : 0.f;
         }
-        double band_px = 0;
-        if (st.grabcut_sure_background > 0) {
-          int x0 = W, y0 = H, x1 = -1, y1 = -1;
-          for (int y = 0; y < H; ++y)
-            for (int x = 0; x < W; ++x)
-              if (f.mask.at(x, y) > 0.5f) {
-                x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
-              }
-          if (x1 >= 0) band_px = st.grabcut_sure_background * std::max(x1 - x0 + 1, y1 - y0 + 1);
-        }
+        const double band_px = st.grabcut_sure_background * std::max(net_box.w, net_box.h);  // 0 without an object
         Image cut = grabcut_mask(rgb, rect, st.grabcut_max_side, st.grabcut_iterations, GrabCutSeed::kMask, &f.mask,
                                  sure_object.empty() ? nullptr : &sure_object, band_px);
         if (any_over_half(cut) && mask_iou(cut, f.mask) >= st.grabcut_min_agreement) {

@@ -30,6 +30,21 @@ Image ellipse_image(int w, int h, double cx, double cy, double rx, double ry, co
   return im;
 }
 
+/// A w x h blue-green checker of `cell` px squares with seeded uniform noise of +-`noise` in every channel.
+Image noisy_checker(int w, int h, int cell, double noise, uint64_t seed) {
+  Image im(w, h, 3);
+  Rng rng(seed);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool dark = ((x / cell) + (y / cell)) % 2 == 0;
+      const float n = static_cast<float>(rng.uniform(-noise, noise));
+      im.at(x, y, 0) = 0.1f + n;
+      im.at(x, y, 1) = (dark ? 0.35f : 0.6f) + n;
+      im.at(x, y, 2) = (dark ? 0.45f : 0.75f) + n;
+    }
+  return im;
+}
+
 /// Paint the filled ellipse (centre cx, cy; radii rx, ry) in `colour` over an RGB image.
 void paint_ellipse(Image& im, double cx, double cy, double rx, double ry, const float colour[3]) {
   for (int y = 0; y < im.height; ++y)
@@ -137,16 +152,7 @@ TEST_CASE("framing: cameras map between the network image and the input image") 
 
 TEST_CASE("framing: GrabCut separates an object from a textured background, the same way every time") {
   // A blue-green checker texture with noise: the border is not plain.
-  Image im(240, 180, 3);
-  Rng rng(11);
-  for (int y = 0; y < 180; ++y)
-    for (int x = 0; x < 240; ++x) {
-      const bool dark = ((x / 12) + (y / 12)) % 2 == 0;
-      const float n = static_cast<float>(rng.uniform(-0.05, 0.05));
-      im.at(x, y, 0) = 0.1f + n;
-      im.at(x, y, 1) = (dark ? 0.35f : 0.6f) + n;
-      im.at(x, y, 2) = (dark ? 0.45f : 0.75f) + n;
-    }
+  Image im = noisy_checker(240, 180, 12, 0.05, 11);
   const double cx = 110, cy = 95, rx = 45, ry = 35;
   const float orange[3] = {0.85f, 0.25f, 0.1f};
   paint_ellipse(im, cx, cy, rx, ry, orange);
@@ -426,16 +432,7 @@ TEST_CASE("framing: GrabCut seeded by colour finds an object whose colour the ba
 TEST_CASE("framing: GrabCut's sure labels keep a far blob of the object's colour out and a background-coloured part in") {
   // A noisy blue-green checker; the object: an orange disc with a band of the checker's colours across it; far from
   // it, a second orange disc. The seed (the network's mask) is the first disc.
-  Image im(320, 224, 3);
-  Rng rng(17);
-  for (int y = 0; y < 224; ++y)
-    for (int x = 0; x < 320; ++x) {
-      const bool dark = ((x / 10) + (y / 10)) % 2 == 0;
-      const float n = static_cast<float>(rng.uniform(-0.04, 0.04));
-      im.at(x, y, 0) = 0.1f + n;
-      im.at(x, y, 1) = (dark ? 0.35f : 0.6f) + n;
-      im.at(x, y, 2) = (dark ? 0.45f : 0.75f) + n;
-    }
+  Image im = noisy_checker(320, 224, 10, 0.04, 17);
   const float orange[3] = {0.85f, 0.25f, 0.1f};
   const double cx = 100, cy = 110, r = 45;
   paint_ellipse(im, cx, cy, r, r, orange);
