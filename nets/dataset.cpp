@@ -576,6 +576,53 @@ void occlude_images(MatrixXfR& images, MatrixXfR& masks, const OcclusionAugmentS
   });
 }
 
+Json MaskErrorAugmentSettings::to_json() const {
+  return {{"prob", prob},
+          {"thin_radius_max", error.thin_radius_max},
+          {"thin_drop", error.thin_drop},
+          {"blob_prob", error.blob_prob},
+          {"blob_size", {error.blob_size_min, error.blob_size_max}},
+          {"keep_min", error.keep_min}};
+}
+
+void MaskErrorAugmentSettings::validate() const {
+  require(prob >= 0 && prob <= 1, "mask-error augmentation: the probability must be in [0, 1]");
+  error.validate();
+}
+
+void mask_error_images(MatrixXfR& images, const MaskErrorAugmentSettings& m, uint64_t seed, uint64_t stream,
+                       std::vector<char>* applied) {
+  m.validate();
+  if (applied) applied->assign(static_cast<size_t>(images.rows()), 0);
+  if (!m.enabled() || images.rows() == 0) return;
+  const int S = square_side(images.cols(), "mask-error augmentation");
+  const int64_t n = static_cast<int64_t>(S) * S;
+  tbb::parallel_for(Eigen::Index(0), images.rows(), [&](Eigen::Index b) {
+    Rng rng = Rng::derived(seed ^ 0x3a5e7e55ULL, stream + static_cast<uint64_t>(b));
+    const bool apply = rng.uniform() < m.prob;
+    const uint64_t error_seed = rng.next();
+    if (!apply) return;
+    // RGBA view of the network image, the object (alpha 1) being its non-white pixels.
+    Image rgba(S, S, 4);
+    for (int y = 0; y < S; ++y)
+      for (int x = 0; x < S; ++x) {
+        const int64_t i = static_cast<int64_t>(y) * S + x;
+        const float r = images(b, i), g = images(b, n + i), bl = images(b, 2 * n + i);
+        rgba.at(x, y, 0) = r;
+        rgba.at(x, y, 1) = g;
+        rgba.at(x, y, 2) = bl;
+        rgba.at(x, y, 3) = is_ink(r, g, bl) ? 1.0f : 0.0f;
+      }
+    apply_mask_error(rgba, m.error, error_seed, kNetBackground);
+    for (int y = 0; y < S; ++y)
+      for (int x = 0; x < S; ++x) {
+        const int64_t i = static_cast<int64_t>(y) * S + x;
+        for (int c = 0; c < 3; ++c) images(b, c * n + i) = rgba.at(x, y, c);
+      }
+    if (applied) (*applied)[static_cast<size_t>(b)] = 1;
+  });
+}
+
 Eigen::VectorXf network_input(const Eigen::Ref<const Eigen::VectorXf>& rgb, const Eigen::VectorXf* mask, int channels) {
   require(channels == 3 || channels == 4, "network input: 3 (RGB) or 4 (RGB + mask) channels");
   const Eigen::Index n = rgb.size() / 3;

@@ -8,6 +8,7 @@
 
 #include "camera/camera.h"
 #include "camera/image.h"
+#include "camera/mask_error.h"
 #include "camera/occlusion.h"
 #include "core/files.h"
 #include "core/types.h"
@@ -290,6 +291,28 @@ Eigen::VectorXf occlude_network_image(Eigen::Ref<Eigen::VectorXf> image, int siz
 /// channels.
 void occlude_images(MatrixXfR& images, MatrixXfR& masks, const OcclusionAugmentSettings& settings, uint64_t seed,
                     uint64_t stream);
+
+/// Segmentation-error augmentation (`train sdf|pose --aug-mask-error P`): with probability P an image shows what
+/// recon's composite of a photo shows when the object's mask is off (camera/mask_error.h: thin parts dropped to the
+/// background, a textured blob added beside the object), the object being the image's non-white pixels (is_ink).
+/// The camera and the shape stay the true ones: the networks learn to read them from such composites. Applied before
+/// the zoom and the reframing, whose object box then follows the erroneous mask as recon's crop does. Image b draws
+/// from Rng::derived(seed, stream + b) only.
+struct MaskErrorAugmentSettings {
+  double prob = 0;  ///< probability of an image getting a mask error, [0, 1]
+  MaskErrorSettings error;
+
+  [[nodiscard]] bool enabled() const { return prob > 0; }
+  [[nodiscard]] Json to_json() const;
+  /// Throws InvalidInput naming the setting out of range.
+  void validate() const;
+};
+
+/// Apply a seeded segmentation error (MaskErrorAugmentSettings) to B x (3 * S * S) rows in place; `applied`
+/// (optional) marks the images that got one. Throws InvalidInput on settings out of range or rows that are not 3
+/// square channels.
+void mask_error_images(MatrixXfR& images, const MaskErrorAugmentSettings& settings, uint64_t seed, uint64_t stream,
+                       std::vector<char>* applied = nullptr);
 
 /// The input of a network with `channels` input channels (3 or 4) from a 3 * S * S RGB network image and its S * S
 /// missing-data mask (null = nothing missing). channels 3 drops the mask (its pixels are already white); 4 appends it.

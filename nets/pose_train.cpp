@@ -38,6 +38,7 @@ Json settings_json(const PoseTrainSettings& s) {
             {"init", s.init}, {"azimuth_weight", s.azimuth_weight}, {"symmetries", s.symmetry_tag},
             {"zoom", s.zoom.to_json()}};
   if (s.reframe.enabled()) j["reframe"] = s.reframe.to_json();
+  if (s.mask_error.enabled()) j["mask_error"] = s.mask_error.to_json();
   if (s.net.centre_head) j["centre_weight"] = s.centre_weight;
   return j;
 }
@@ -199,6 +200,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   require(s.azimuth_weight >= 0 && std::isfinite(s.azimuth_weight), "train pose: the azimuth weight must be >= 0");
   require(s.azimuth_weight == 0 || s.net.azimuth_bins > 0, "train pose: --azimuth-weight needs --azimuth-bins > 0");
   s.reframe.validate();
+  s.mask_error.validate();
   require(!s.reframe.enabled() || s.net.centre_head,
           "train pose: --aug-reframe needs --centre-head (the reframed images' principal point is off the centre)");
   require(s.reframe.camera == ZoomAugmentSettings::CameraFollow::kDistance,
@@ -320,6 +322,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   auto load = [&sampler, &s, i0 = i0, i1 = i1](long at) {
     SdfBatch batch = sampler.batch(at, i0, i1);
     const uint64_t stream = static_cast<uint64_t>(at) * static_cast<uint64_t>(s.batch) + i0;
+    mask_error_images(batch.images, s.mask_error, s.seed, stream);
     zoom_images(batch.images, batch.cameras, s.zoom, s.seed, stream);
     reframe_images(batch.images, batch.cameras, s.reframe, s.seed, stream);
     augment_images(batch.images, s.augment, s.seed, stream);

@@ -225,6 +225,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   require(st.zoom.camera == ZoomAugmentSettings::CameraFollow::kFocal,
           "train sdf: the zoom augmentation must move the intrinsics (the network projects with the camera)");
   st.reframe.validate();
+  st.mask_error.validate();
   require(st.reframe.camera == ZoomAugmentSettings::CameraFollow::kFocal,
           "train sdf: the reframing must move the intrinsics (the network projects with the camera)");
   const SdfAdversarialSettings& adv = st.adversarial;
@@ -278,7 +279,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   long step = 0;
   double seconds_before = 0;  // training time of earlier (resumed) runs
 
-  const Json train_json = {{"data", st.data},          {"train_split", st.train_split}, {"batch", st.batch},
+  Json train_json = {{"data", st.data},          {"train_split", st.train_split}, {"batch", st.batch},
                            {"points", st.points},      {"lr", st.lr},                   {"lr_min", st.lr_min},
                            {"lr_steps", st.lr_steps},
                            {"weight_decay", st.weight_decay}, {"grad_clip", st.grad_clip},
@@ -288,6 +289,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
                            {"reframe", st.reframe.to_json()},
                            {"occlusion", st.occlusion.to_json()},
                            {"adversarial", adv.to_json()}};
+  if (st.mask_error.enabled()) train_json["mask_error"] = st.mask_error.to_json();
   if (st.resume && fs::exists(st.out)) {
     Checkpoint ck = load_checkpoint(st.out);
     // A configuration written before a field existed reads as that field's default (SdfNetConfig::from_json).
@@ -382,6 +384,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     SdfBatch& batch = l.batch;
     batch = sampler.batch(at, i0, i1);
     const uint64_t stream = static_cast<uint64_t>(at) * st.batch + i0;
+    mask_error_images(batch.images, st.mask_error, st.seed, stream);
     zoom_images(batch.images, batch.cameras, st.zoom, st.seed, stream);
     reframe_images(batch.images, batch.cameras, st.reframe, st.seed, stream);
     if (st.adversarial.enabled()) {

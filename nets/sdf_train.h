@@ -76,6 +76,10 @@ struct SdfTrainSettings {
   /// recon gives real inputs (the object's box at a fixed size and place, the principal point moved with it), so
   /// that the network meets off-centre cameras. Seeded per (seed, item).
   ReframeAugmentSettings reframe;
+  /// Segmentation-error augmentation (nets/dataset.h, off by default), applied before the zoom: images with thin parts
+  /// dropped and a blob added, as recon's composites of photos with an imperfect mask; the camera and the shape stay
+  /// the true ones.
+  MaskErrorAugmentSettings mask_error;
   /// Occlusion augmentation (nets/dataset.h, off by default), applied after the zoom and the reframing. With an RGB + mask network
   /// (net.input_channels = 4) the network also reads the removed pixels' mask; an RGB network sees white there.
   OcclusionAugmentSettings occlusion;

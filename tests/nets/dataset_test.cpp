@@ -655,3 +655,48 @@ TEST_CASE("network_input appends the missing-data mask for an RGB + mask network
   CHECK(network_input(rgb, nullptr, 4).tail(16).isZero());
   CHECK_THROWS_AS(network_input(rgb, &mask, 5), InvalidInput);
 }
+
+TEST_CASE("mask-error augmentation: seeded per image, thin parts dropped to white, identity when off") {
+  const int S = 40;
+  // A grey body (columns 10..29, rows 8..23) with a leg 2 px wide (columns 14-15) down to row 35, on white.
+  MatrixXfR images = MatrixXfR::Ones(6, 3 * S * S);
+  auto ink = [&](int b, int x, int y) {
+    for (int c = 0; c < 3; ++c) images(b, (c * S + y) * S + x) = 0.3f + 0.1f * c;
+  };
+  for (int b = 0; b < 6; ++b) {
+    for (int y = 8; y < 24; ++y)
+      for (int x = 10; x < 30; ++x) ink(b, x, y);
+    for (int y = 24; y < 36; ++y) ink(b, 14, y), ink(b, 15, y);
+  }
+  const MatrixXfR clean = images;
+  MaskErrorAugmentSettings st;
+  st.prob = 1;
+  st.error.blob_prob = 0;
+  st.error.thin_drop = 1;
+  std::vector<char> applied;
+  MatrixXfR again = images;
+  mask_error_images(images, st, 4, 20, &applied);
+  mask_error_images(again, st, 4, 20);
+  CHECK(images == again);  // same (seed, stream): same bytes
+  REQUIRE(applied.size() == 6);
+  for (int b = 0; b < 6; ++b) {
+    CHECK(applied[static_cast<size_t>(b)] == 1);
+    for (int y = 28; y < 36; ++y)  // the leg below the body's reach of any disc: white
+      for (int c = 0; c < 3; ++c) CHECK(images(b, (c * S + y) * S + 14) == kNetBackground);
+    for (int c = 0; c < 3; ++c)  // the body's centre: untouched
+      CHECK(images(b, (c * S + 16) * S + 20) == clean(b, (c * S + 16) * S + 20));
+  }
+  // Blobs: another stream and images differ; probability 0 leaves every image as it was.
+  st.error.blob_prob = 1;
+  MatrixXfR blobs = clean, blobs2 = clean;
+  mask_error_images(blobs, st, 4, 20);
+  mask_error_images(blobs2, st, 4, 21);
+  CHECK(blobs != blobs2);
+  st.prob = 0;
+  MatrixXfR off = clean;
+  mask_error_images(off, st, 4, 20, &applied);
+  CHECK(off == clean);
+  CHECK(std::count(applied.begin(), applied.end(), 1) == 0);
+  st.prob = 2;
+  CHECK_THROWS_AS(mask_error_images(off, st, 4, 20), InvalidInput);
+}

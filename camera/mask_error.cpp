@@ -1,0 +1,178 @@
+#include "camera/mask_error.h"
+
+#include "core/error.h"
+#include "core/random.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+namespace sdfkit {
+
+void MaskErrorSettings::validate() const {
+  require(thin_radius_max >= 1 && thin_radius_max <= 16, "mask error: thin_radius_max must be in [1, 16]");
+  require(thin_drop >= 0 && thin_drop <= 1, "mask error: thin_drop must be in [0, 1]");
+  require(blob_prob >= 0 && blob_prob <= 1, "mask error: blob_prob must be in [0, 1]");
+  require(blob_size_min > 0 && blob_size_min <= blob_size_max && blob_size_max <= 1,
+          "mask error: need 0 < blob_size_min <= blob_size_max <= 1");
+  require(keep_min >= 0 && keep_min <= 1, "mask error: keep_min must be in [0, 1]");
+}
+
+namespace {
+
+using Mask = std::vector<unsigned char>;
+
+// The offsets of a disc of radius r (dx^2 + dy^2 <= r^2).
+std::vector<std::pair<int, int>> disc(int r) {
+  std::vector<std::pair<int, int>> d;
+  for (int dy = -r; dy <= r; ++dy)
+    for (int dx = -r; dx <= r; ++dx)
+      if (dx * dx + dy * dy <= r * r) d.emplace_back(dx, dy);
+  return d;
+}
+
+// Erosion (every disc pixel inside `m`; outside the image counts as background) or dilation (any disc pixel inside).
+Mask morph(const Mask& m, int W, int H, const std::vector<std::pair<int, int>>& d, bool erode) {
+  Mask out(m.size(), 0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      bool all = true, any = false;
+      for (const auto& [dx, dy] : d) {
+        const int u = x + dx, v = y + dy;
+        const bool in = u >= 0 && v >= 0 && u < W && v < H && m[static_cast<size_t>(v) * W + u];
+        all = all && in;
+        any = any || in;
+        if (erode ? !all : any) break;
+      }
+      out[static_cast<size_t>(y) * W + x] = erode ? all : any;
+    }
+  return out;
+}
+
+}  // namespace
+
+MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64_t seed, float background) {
+  s.validate();
+  require(rgba.channels == 4, "mask error: the image needs 4 channels (RGBA), it has " + std::to_string(rgba.channels));
+  const int W = rgba.width, H = rgba.height;
+  const size_t n = static_cast<size_t>(W) * H;
+  MaskErrorResult res;
+  Mask obj(n);
+  long count = 0;
+  int x0 = W, y0 = H, x1 = -1, y1 = -1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const bool in = rgba.at(x, y, 3) > 0.5f;
+      obj[static_cast<size_t>(y) * W + x] = in;
+      if (!in) continue;
+      ++count;
+      x0 = std::min(x0, x);
+      x1 = std::max(x1, x);
+      y0 = std::min(y0, y);
+      y1 = std::max(y1, y);
+    }
+  // Every draw is made in a fixed order whatever the image, so the choices depend on the seed only.
+  Rng rng(seed);
+  const int radius = 1 + static_cast<int>(rng.below(static_cast<uint64_t>(s.thin_radius_max)));
+  const uint64_t part_seed = rng.next();
+  const bool blob = rng.uniform() < s.blob_prob;
+  const double blob_a = rng.uniform(s.blob_size_min, s.blob_size_max), blob_b = rng.uniform(s.blob_size_min, s.blob_size_max);
+  const double blob_angle = rng.uniform(0, M_PI);
+  const uint64_t blob_at = rng.next();
+  double base[3], grad[3][2];
+  for (int c = 0; c < 3; ++c) {
+    base[c] = rng.uniform(0.1, 0.85);
+    grad[c][0] = rng.uniform(-0.3, 0.3);
+    grad[c][1] = rng.uniform(-0.3, 0.3);
+  }
+  const double noise = rng.uniform(0.0, 0.08);
+  const uint64_t noise_seed = rng.next();
+  if (count == 0) return res;
+
+  // 1. Thin parts: the residue of the opening, split into 8-connected parts, each dropped by its own coin.
+  const auto d = disc(radius);
+  const Mask opened = morph(morph(obj, W, H, d, true), W, H, d, false);
+  std::vector<int> label(n, -1);
+  std::vector<size_t> stack;
+  std::vector<std::vector<size_t>> parts;
+  for (size_t i = 0; i < n; ++i) {
+    if (!obj[i] || opened[i] || label[i] >= 0) continue;
+    const int id = static_cast<int>(parts.size());
+    parts.emplace_back();
+    stack.assign(1, i);
+    label[i] = id;
+    while (!stack.empty()) {
+      const size_t p = stack.back();
+      stack.pop_back();
+      parts[static_cast<size_t>(id)].push_back(p);
+      const int px = static_cast<int>(p % static_cast<size_t>(W)), py = static_cast<int>(p / static_cast<size_t>(W));
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int u = px + dx, v = py + dy;
+          if (u < 0 || v < 0 || u >= W || v >= H) continue;
+          const size_t q = static_cast<size_t>(v) * W + u;
+          if (obj[q] && !opened[q] && label[q] < 0) {
+            label[q] = id;
+            stack.push_back(q);
+          }
+        }
+    }
+  }
+  res.thin_parts = static_cast<int>(parts.size());
+  Rng part_rng(part_seed);
+  std::vector<size_t> drop;
+  for (const auto& part : parts)
+    if (part_rng.uniform() < s.thin_drop) {
+      ++res.dropped_parts;
+      drop.insert(drop.end(), part.begin(), part.end());
+    }
+  if (static_cast<double>(count - static_cast<long>(drop.size())) < s.keep_min * static_cast<double>(count)) {
+    drop.clear();
+    res.dropped_parts = 0;
+  }
+  for (const size_t p : drop) {
+    obj[p] = 0;
+    const int px = static_cast<int>(p % static_cast<size_t>(W)), py = static_cast<int>(p / static_cast<size_t>(W));
+    for (int c = 0; c < 3; ++c) rgba.at(px, py, c) = background;
+    rgba.at(px, py, 3) = 0.0f;
+  }
+  res.dropped_pixels = static_cast<long>(drop.size());
+
+  // 2. A blob beside the object: centred on an outline pixel of what is left (an object pixel with a background
+  //    4-neighbour or on the image border), painted where there is no object.
+  if (!blob) return res;
+  std::vector<size_t> outline;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t i = static_cast<size_t>(y) * W + x;
+      if (!obj[i]) continue;
+      const bool edge = x == 0 || y == 0 || x == W - 1 || y == H - 1 || !obj[i - 1] || !obj[i + 1] ||
+                        !obj[i - static_cast<size_t>(W)] || !obj[i + static_cast<size_t>(W)];
+      if (edge) outline.push_back(i);
+    }
+  if (outline.empty()) return res;
+  const size_t at = outline[static_cast<size_t>(blob_at % outline.size())];
+  const double cx = static_cast<double>(at % static_cast<size_t>(W)) + 0.5;
+  const double cy = static_cast<double>(at / static_cast<size_t>(W)) + 0.5;
+  const double side = std::max(x1 - x0 + 1, y1 - y0 + 1);
+  const double a = std::max(1.0, blob_a * side), b = std::max(1.0, blob_b * side);
+  const double ca = std::cos(blob_angle), sa = std::sin(blob_angle);
+  const double reach = std::max(a, b);
+  Rng noise_rng(noise_seed);
+  for (int y = std::max(0, static_cast<int>(cy - reach)); y <= std::min(H - 1, static_cast<int>(cy + reach)); ++y)
+    for (int x = std::max(0, static_cast<int>(cx - reach)); x <= std::min(W - 1, static_cast<int>(cx + reach)); ++x) {
+      const double px = x + 0.5 - cx, py = y + 0.5 - cy;
+      const double u = (ca * px + sa * py) / a, v = (-sa * px + ca * py) / b;
+      if (u * u + v * v > 1 || obj[static_cast<size_t>(y) * W + x]) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double value = base[c] + grad[c][0] * px / reach + grad[c][1] * py / reach + noise * noise_rng.normal();
+        rgba.at(x, y, c) = static_cast<float>(std::clamp(value, 0.02, 0.9));
+      }
+      rgba.at(x, y, 3) = 1.0f;
+      ++res.blob_pixels;
+    }
+  return res;
+}
+
+}  // namespace sdfkit

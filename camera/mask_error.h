@@ -1,0 +1,45 @@
+// Segmentation-error simulation: what an imperfect object mask does to the composite recon makes of a photograph
+// (the object's pixels inside the mask on the training background). On the test composites of
+// docs/results/framing.md the masks of 0.5-0.9 IoU mostly lose thin parts (chair and table legs, lamp arms, rifle
+// barrels) and sometimes take in a blob of the photo beside the object; both move the object's box, which recon
+// frames, and show the networks an object that is not the shape's. An image transform on an RGBA render, so that
+// training (`train sdf|pose --aug-mask-error`) can show the networks such composites with the true camera and shape.
+#pragma once
+
+#include "camera/image.h"
+
+#include <cstdint>
+
+namespace sdfkit {
+
+struct MaskErrorSettings {
+  /// Thin parts: the object pixels (alpha > 0.5) that a morphological opening by a disc of radius r removes, r drawn
+  /// uniformly in [1, thin_radius_max] (pixels); each 8-connected thin part is dropped with probability thin_drop.
+  int thin_radius_max = 3;
+  double thin_drop = 0.7;
+  /// With probability blob_prob, one elliptic blob of textured colour is added outside the object, centred on a
+  /// pixel of its outline; its semi-axes are blob_size_min-blob_size_max times the object's box's longer side.
+  double blob_prob = 0.3;
+  double blob_size_min = 0.05, blob_size_max = 0.2;
+  /// The thin parts are kept when dropping them would leave fewer than this share of the object's pixels.
+  double keep_min = 0.4;
+
+  /// Throws InvalidInput naming the setting out of range.
+  void validate() const;
+};
+
+struct MaskErrorResult {
+  int thin_parts = 0;       ///< thin parts found (8-connected components of the opening's residue)
+  int dropped_parts = 0;    ///< of them, dropped
+  long dropped_pixels = 0;  ///< object pixels set to the background
+  long blob_pixels = 0;     ///< background pixels that became blob
+};
+
+/// Applies a seeded segmentation error to an RGBA image in place (4 channels; the object is alpha > 0.5): dropped
+/// pixels get alpha 0 and RGB `background`, blob pixels alpha 1 and a colour of a random base, gradient and noise,
+/// every channel in [0.02, 0.9] (never the white background). The same seed gives the same result; an image without
+/// object pixels is left as it is. Throws InvalidInput on settings out of range or an image without 4 channels.
+MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& settings, uint64_t seed,
+                                 float background = 1.0f);
+
+}  // namespace sdfkit

@@ -1,0 +1,152 @@
+#include "camera/mask_error.h"
+#include "core/error.h"
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+
+using namespace sdfkit;
+
+namespace {
+/// 64 x 64 RGBA image on a transparent background: a 24 x 24 body [10, 34) x [10, 34) and a leg 2 px wide
+/// (x 20-21) hanging from it down to row 55.
+Image body_and_leg() {
+  Image img(64, 64, 4, 0.0f);
+  auto paint = [&](int x, int y) {
+    img.at(x, y, 0) = 0.5f;
+    img.at(x, y, 1) = 0.25f;
+    img.at(x, y, 2) = 0.75f;
+    img.at(x, y, 3) = 1.0f;
+  };
+  for (int y = 10; y < 34; ++y)
+    for (int x = 10; x < 34; ++x) paint(x, y);
+  for (int y = 34; y < 56; ++y)
+    for (int x = 20; x < 22; ++x) paint(x, y);
+  return img;
+}
+bool object(const Image& img, int x, int y) { return img.at(x, y, 3) > 0.5f; }
+}  // namespace
+
+TEST_CASE("mask error: thin parts are what an opening removes, dropped ones become background, the body stays") {
+  MaskErrorSettings st;
+  st.blob_prob = 0;
+  st.thin_drop = 1;
+  for (uint64_t seed = 0; seed < 12; ++seed) {
+    CAPTURE(seed);
+    Image img = body_and_leg();
+    const MaskErrorResult r = apply_mask_error(img, st, seed, 1.0f);
+    CHECK(r.dropped_parts == r.thin_parts);
+    CHECK(r.blob_pixels == 0);
+    long dropped = 0;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        const bool was = object(body_and_leg(), x, y);
+        if (was && !object(img, x, y)) {
+          ++dropped;
+          for (int c = 0; c < 3; ++c) CHECK(img.at(x, y, c) == 1.0f);
+        }
+        CHECK((!was ? !object(img, x, y) : true));  // nothing added without a blob
+      }
+    CHECK(dropped == r.dropped_pixels);
+    // The leg (2 px wide) is thinner than any disc of radius >= 1 fits: every pixel of it more than 3 px below the
+    // body is dropped. The body's pixels more than 3 px from its corners' diagonals stay.
+    for (int y = 38; y < 56; ++y)
+      for (int x = 20; x < 22; ++x) CHECK_FALSE(object(img, x, y));
+    for (int y = 13; y < 31; ++y)
+      for (int x = 13; x < 31; ++x) CHECK(object(img, x, y));
+  }
+  // thin_drop 0 drops nothing: the image is unchanged.
+  st.thin_drop = 0;
+  Image img = body_and_leg();
+  const MaskErrorResult r = apply_mask_error(img, st, 5, 1.0f);
+  CHECK(r.thin_parts > 0);
+  CHECK(r.dropped_parts == 0);
+  CHECK(img.data == body_and_leg().data);
+}
+
+TEST_CASE("mask error: an object made only of thin parts is kept whole (keep_min), an empty image unchanged") {
+  MaskErrorSettings st;
+  st.blob_prob = 0;
+  st.thin_drop = 1;
+  Image line(40, 40, 4, 0.0f);
+  for (int x = 5; x < 35; ++x) line.at(x, 20, 3) = line.at(x, 21, 3) = 1.0f;
+  const Image before = line;
+  const MaskErrorResult r = apply_mask_error(line, st, 3, 1.0f);
+  CHECK(r.thin_parts >= 1);
+  CHECK(r.dropped_pixels == 0);
+  CHECK(line.data == before.data);
+  Image empty(20, 20, 4, 0.0f);
+  st.blob_prob = 1;
+  CHECK(apply_mask_error(empty, st, 3, 1.0f).blob_pixels == 0);
+  CHECK(empty.data == Image(20, 20, 4, 0.0f).data);
+}
+
+TEST_CASE("mask error: a blob is added outside the object, touching it, in non-background colours") {
+  MaskErrorSettings st;
+  st.thin_drop = 0;
+  st.blob_prob = 1;
+  st.blob_size_min = 0.1;
+  st.blob_size_max = 0.3;
+  int blobs = 0;
+  for (uint64_t seed = 0; seed < 8; ++seed) {
+    CAPTURE(seed);
+    const Image clean = body_and_leg();
+    Image img = clean;
+    const MaskErrorResult r = apply_mask_error(img, st, seed, 1.0f);
+    long added = 0;
+    bool touches = false;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        if (object(clean, x, y)) {  // the object's pixels are never changed
+          for (int c = 0; c < 4; ++c) CHECK(img.at(x, y, c) == clean.at(x, y, c));
+          continue;
+        }
+        if (!object(img, x, y)) continue;
+        ++added;
+        for (int c = 0; c < 3; ++c) {
+          CHECK(img.at(x, y, c) >= 0.02f);
+          CHECK(img.at(x, y, c) <= 0.9f);
+        }
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx)
+            touches = touches || object(clean, std::clamp(x + dx, 0, 63), std::clamp(y + dy, 0, 63));
+      }
+    CHECK(added == r.blob_pixels);
+    // Semi-axes at most 0.3 of the box's longer side (46 px): the blob fits in the ellipse's area.
+    CHECK(static_cast<double>(added) <= M_PI * (0.3 * 46 + 1) * (0.3 * 46 + 1));
+    if (added > 0) {
+      CHECK(touches);
+      ++blobs;
+    }
+  }
+  CHECK(blobs >= 6);  // a blob centred on the outline always has outside pixels unless it is tiny
+}
+
+TEST_CASE("mask error: seeded, and rejects bad settings and images without alpha") {
+  MaskErrorSettings st;
+  st.blob_prob = 0.5;
+  Image a = body_and_leg(), b = body_and_leg(), c = body_and_leg();
+  apply_mask_error(a, st, 7, 1.0f);
+  apply_mask_error(b, st, 7, 1.0f);
+  CHECK(a.data == b.data);
+  bool differs = false;
+  for (uint64_t seed = 8; seed < 16 && !differs; ++seed) {
+    c = body_and_leg();
+    apply_mask_error(c, st, seed, 1.0f);
+    differs = c.data != a.data;
+  }
+  CHECK(differs);
+  Image rgb(8, 8, 3, 0.0f);
+  CHECK_THROWS_AS(apply_mask_error(rgb, st, 1, 1.0f), InvalidInput);
+  MaskErrorSettings bad = st;
+  bad.thin_drop = 1.5;
+  CHECK_THROWS_AS(apply_mask_error(a, bad, 1, 1.0f), InvalidInput);
+  bad = st;
+  bad.blob_size_min = 0.5;
+  bad.blob_size_max = 0.2;
+  CHECK_THROWS_AS(apply_mask_error(a, bad, 1, 1.0f), InvalidInput);
+  bad = st;
+  bad.thin_radius_max = 0;
+  CHECK_THROWS_AS(apply_mask_error(a, bad, 1, 1.0f), InvalidInput);
+}
