@@ -17,6 +17,8 @@ void MaskErrorSettings::validate() const {
   require(blob_size_min > 0 && blob_size_min <= blob_size_max && blob_size_max <= 1,
           "mask error: need 0 < blob_size_min <= blob_size_max <= 1");
   require(keep_min >= 0 && keep_min <= 1, "mask error: keep_min must be in [0, 1]");
+  require(edge_prob >= 0 && edge_prob <= 1 && edge_halo >= 0 && edge_halo <= 1,
+          "mask error: edge_prob and edge_halo must be in [0, 1]");
 }
 
 namespace {
@@ -50,6 +52,28 @@ Mask morph(const Mask& m, int W, int H, const std::vector<std::pair<int, int>>& 
   return out;
 }
 
+// A smooth random colour field with noise: base + gradient over `reach` pixels about (cx, cy) + Gaussian noise,
+// every channel in [0.02, 0.9] (never the white background).
+struct Texture {
+  double base[3], grad[3][2], noise, cx = 0, cy = 0, reach = 1;
+  void draw(Rng& rng) {
+    for (int c = 0; c < 3; ++c) {
+      base[c] = rng.uniform(0.1, 0.85);
+      grad[c][0] = rng.uniform(-0.3, 0.3);
+      grad[c][1] = rng.uniform(-0.3, 0.3);
+    }
+    noise = rng.uniform(0.0, 0.08);
+  }
+  void paint(Image& rgba, int x, int y, Rng& noise_rng) const {
+    const double px = x + 0.5 - cx, py = y + 0.5 - cy;
+    for (int c = 0; c < 3; ++c) {
+      const double value = base[c] + grad[c][0] * px / reach + grad[c][1] * py / reach + noise * noise_rng.normal();
+      rgba.at(x, y, c) = static_cast<float>(std::clamp(value, 0.02, 0.9));
+    }
+    rgba.at(x, y, 3) = 1.0f;
+  }
+};
+
 }  // namespace
 
 MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64_t seed, float background) {
@@ -80,15 +104,15 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
   const double blob_a = rng.uniform(s.blob_size_min, s.blob_size_max), blob_b = rng.uniform(s.blob_size_min, s.blob_size_max);
   const double blob_angle = rng.uniform(0, M_PI);
   const uint64_t blob_at = rng.next();
-  double base[3], grad[3][2];
-  for (int c = 0; c < 3; ++c) {
-    base[c] = rng.uniform(0.1, 0.85);
-    grad[c][0] = rng.uniform(-0.3, 0.3);
-    grad[c][1] = rng.uniform(-0.3, 0.3);
-  }
-  const double noise = rng.uniform(0.0, 0.08);
+  Texture blob_texture, halo_texture;
+  blob_texture.draw(rng);
+  const bool edge = rng.uniform() < s.edge_prob;
+  const bool halo = rng.uniform() < s.edge_halo;
+  const int edge_radius = 1 + static_cast<int>(rng.below(2));
+  halo_texture.draw(rng);
   const uint64_t noise_seed = rng.next();
   if (count == 0) return res;
+  Rng noise_rng(noise_seed);
 
   // 1. Thin parts: the residue of the opening, split into 8-connected parts, each dropped by its own coin.
   const auto d = disc(radius);
@@ -139,7 +163,45 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
   }
   res.dropped_pixels = static_cast<long>(drop.size());
 
-  // 2. A blob beside the object: centred on an outline pixel of what is left (an object pixel with a background
+  // 2. The outline moved by a disc: outward, a textured halo where the dilation reaches outside the object; inward,
+  //    the pixels the erosion removes (unless that would leave less than keep_min of the object).
+  if (edge) {
+    const auto e = disc(edge_radius);
+    if (halo) {
+      const Mask grown = morph(obj, W, H, e, false);
+      halo_texture.cx = 0.5 * (x0 + x1 + 1);
+      halo_texture.cy = 0.5 * (y0 + y1 + 1);
+      halo_texture.reach = std::max(1, std::max(x1 - x0 + 1, y1 - y0 + 1));
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+          const size_t i = static_cast<size_t>(y) * W + x;
+          if (!grown[i] || obj[i]) continue;
+          halo_texture.paint(rgba, x, y, noise_rng);
+          obj[i] = 1;  // part of the mask's object from now on
+          ++res.halo_pixels;
+        }
+    } else {
+      const Mask shrunk = morph(obj, W, H, e, true);
+      long left = 0, gone = 0;
+      for (size_t i = 0; i < n; ++i) {
+        left += shrunk[i] ? 1 : 0;
+        gone += obj[i] && !shrunk[i] ? 1 : 0;
+      }
+      if (static_cast<double>(left) >= s.keep_min * static_cast<double>(count)) {
+        for (int y = 0; y < H; ++y)
+          for (int x = 0; x < W; ++x) {
+            const size_t i = static_cast<size_t>(y) * W + x;
+            if (!obj[i] || shrunk[i]) continue;
+            obj[i] = 0;
+            for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = background;
+            rgba.at(x, y, 3) = 0.0f;
+          }
+        res.eroded_pixels = gone;
+      }
+    }
+  }
+
+  // 3. A blob beside the object: centred on an outline pixel of what is left (an object pixel with a background
   //    4-neighbour or on the image border), painted where there is no object.
   if (!blob) return res;
   std::vector<size_t> outline;
@@ -147,9 +209,9 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
     for (int x = 0; x < W; ++x) {
       const size_t i = static_cast<size_t>(y) * W + x;
       if (!obj[i]) continue;
-      const bool edge = x == 0 || y == 0 || x == W - 1 || y == H - 1 || !obj[i - 1] || !obj[i + 1] ||
-                        !obj[i - static_cast<size_t>(W)] || !obj[i + static_cast<size_t>(W)];
-      if (edge) outline.push_back(i);
+      const bool on_outline = x == 0 || y == 0 || x == W - 1 || y == H - 1 || !obj[i - 1] || !obj[i + 1] ||
+                              !obj[i - static_cast<size_t>(W)] || !obj[i + static_cast<size_t>(W)];
+      if (on_outline) outline.push_back(i);
     }
   if (outline.empty()) return res;
   const size_t at = outline[static_cast<size_t>(blob_at % outline.size())];
@@ -159,17 +221,15 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
   const double a = std::max(1.0, blob_a * side), b = std::max(1.0, blob_b * side);
   const double ca = std::cos(blob_angle), sa = std::sin(blob_angle);
   const double reach = std::max(a, b);
-  Rng noise_rng(noise_seed);
+  blob_texture.cx = cx;
+  blob_texture.cy = cy;
+  blob_texture.reach = reach;
   for (int y = std::max(0, static_cast<int>(cy - reach)); y <= std::min(H - 1, static_cast<int>(cy + reach)); ++y)
     for (int x = std::max(0, static_cast<int>(cx - reach)); x <= std::min(W - 1, static_cast<int>(cx + reach)); ++x) {
       const double px = x + 0.5 - cx, py = y + 0.5 - cy;
       const double u = (ca * px + sa * py) / a, v = (-sa * px + ca * py) / b;
       if (u * u + v * v > 1 || obj[static_cast<size_t>(y) * W + x]) continue;
-      for (int c = 0; c < 3; ++c) {
-        const double value = base[c] + grad[c][0] * px / reach + grad[c][1] * py / reach + noise * noise_rng.normal();
-        rgba.at(x, y, c) = static_cast<float>(std::clamp(value, 0.02, 0.9));
-      }
-      rgba.at(x, y, 3) = 1.0f;
+      blob_texture.paint(rgba, x, y, noise_rng);
       ++res.blob_pixels;
     }
   return res;

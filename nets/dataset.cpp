@@ -582,7 +582,9 @@ Json MaskErrorAugmentSettings::to_json() const {
           {"thin_drop", error.thin_drop},
           {"blob_prob", error.blob_prob},
           {"blob_size", {error.blob_size_min, error.blob_size_max}},
-          {"keep_min", error.keep_min}};
+          {"keep_min", error.keep_min},
+          {"edge_prob", error.edge_prob},
+          {"edge_halo", error.edge_halo}};
 }
 
 void MaskErrorAugmentSettings::validate() const {

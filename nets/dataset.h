@@ -294,7 +294,7 @@ void occlude_images(MatrixXfR& images, MatrixXfR& masks, const OcclusionAugmentS
 
 /// Segmentation-error augmentation (`train sdf|pose --aug-mask-error P`): with probability P an image shows what
 /// recon's composite of a photo shows when the object's mask is off (camera/mask_error.h: thin parts dropped to the
-/// background, a textured blob added beside the object), the object being the image's non-white pixels (is_ink).
+/// background, the outline moved by 1-2 px, a textured blob added beside the object), the object being the image's non-white pixels (is_ink).
 /// The camera and the shape stay the true ones: the networks learn to read them from such composites. Applied before
 /// the zoom and the reframing, whose object box then follows the erroneous mask as recon's crop does. Image b draws
 /// from Rng::derived(seed, stream + b) only.

@@ -49,8 +49,9 @@ struct PoseTrainSettings {
     r.camera = ZoomAugmentSettings::CameraFollow::kDistance;
     return r;
   }();
-  /// Segmentation-error augmentation (nets/dataset.h, off by default), applied first: images with thin parts dropped
-  /// and a blob added, as recon's composites of photos with an imperfect mask; the camera stays the true one.
+  /// Segmentation-error augmentation (nets/dataset.h, off by default), applied first: images with thin parts dropped,
+  /// the outline moved and a blob added, as recon's composites of photos with an imperfect mask; the camera stays the
+  /// true one.
   MaskErrorAugmentSettings mask_error;
   /// Weight of the centre head's loss (PoseLossOptions::centre_weight; used with net.centre_head).
   double centre_weight = 1;

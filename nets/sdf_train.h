@@ -77,8 +77,8 @@ struct SdfTrainSettings {
   /// that the network meets off-centre cameras. Seeded per (seed, item).
   ReframeAugmentSettings reframe;
   /// Segmentation-error augmentation (nets/dataset.h, off by default), applied before the zoom: images with thin parts
-  /// dropped and a blob added, as recon's composites of photos with an imperfect mask; the camera and the shape stay
-  /// the true ones.
+  /// dropped, the outline moved and a blob added, as recon's composites of photos with an imperfect mask; the camera
+  /// and the shape stay the true ones.
   MaskErrorAugmentSettings mask_error;
   /// Occlusion augmentation (nets/dataset.h, off by default), applied after the zoom and the reframing. With an RGB + mask network
   /// (net.input_channels = 4) the network also reads the removed pixels' mask; an RGB network sees white there.

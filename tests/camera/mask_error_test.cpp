@@ -31,6 +31,7 @@ bool object(const Image& img, int x, int y) { return img.at(x, y, 3) > 0.5f; }
 TEST_CASE("mask error: thin parts are what an opening removes, dropped ones become background, the body stays") {
   MaskErrorSettings st;
   st.blob_prob = 0;
+  st.edge_prob = 0;
   st.thin_drop = 1;
   for (uint64_t seed = 0; seed < 12; ++seed) {
     CAPTURE(seed);
@@ -68,6 +69,7 @@ TEST_CASE("mask error: thin parts are what an opening removes, dropped ones beco
 TEST_CASE("mask error: an object made only of thin parts is kept whole (keep_min), an empty image unchanged") {
   MaskErrorSettings st;
   st.blob_prob = 0;
+  st.edge_prob = 0;
   st.thin_drop = 1;
   Image line(40, 40, 4, 0.0f);
   for (int x = 5; x < 35; ++x) line.at(x, 20, 3) = line.at(x, 21, 3) = 1.0f;
@@ -85,6 +87,7 @@ TEST_CASE("mask error: an object made only of thin parts is kept whole (keep_min
 TEST_CASE("mask error: a blob is added outside the object, touching it, in non-background colours") {
   MaskErrorSettings st;
   st.thin_drop = 0;
+  st.edge_prob = 0;
   st.blob_prob = 1;
   st.blob_size_min = 0.1;
   st.blob_size_max = 0.3;
@@ -123,6 +126,53 @@ TEST_CASE("mask error: a blob is added outside the object, touching it, in non-b
   CHECK(blobs >= 6);  // a blob centred on the outline always has outside pixels unless it is tiny
 }
 
+TEST_CASE("mask error: the outline moves by at most 2 px, a textured halo outward or an eroded rim inward") {
+  MaskErrorSettings st;
+  st.thin_drop = 0;
+  st.blob_prob = 0;
+  st.edge_prob = 1;
+  int halos = 0, erosions = 0;
+  for (uint64_t seed = 0; seed < 16; ++seed) {
+    CAPTURE(seed);
+    const Image clean = body_and_leg();
+    Image img = clean;
+    const MaskErrorResult r = apply_mask_error(img, st, seed, 1.0f);
+    CHECK((r.halo_pixels > 0) != (r.eroded_pixels > 0));  // one of the two, never both
+    halos += r.halo_pixels > 0;
+    erosions += r.eroded_pixels > 0;
+    // Distance (chessboard, an upper bound of the disc's reach) from a pixel to the nearest pixel of `in` state.
+    auto near = [&](int x, int y, bool want_object) {
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dx = -2; dx <= 2; ++dx) {
+          const int u = x + dx, v = y + dy;
+          const bool in = u >= 0 && v >= 0 && u < 64 && v < 64 && object(clean, u, v);
+          if (in == want_object) return true;
+        }
+      return false;
+    };
+    long added = 0, removed = 0;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        const bool was = object(clean, x, y), is = object(img, x, y);
+        if (!was && is) {
+          ++added;
+          CHECK(near(x, y, true));  // a halo pixel is within 2 px of the object
+          for (int c = 0; c < 3; ++c) CHECK(img.at(x, y, c) <= 0.9f);
+        }
+        if (was && !is) {
+          ++removed;
+          CHECK(near(x, y, false));  // an eroded pixel is within 2 px of the background
+          CHECK(img.at(x, y, 0) == 1.0f);
+        }
+        if (was && is) CHECK(img.at(x, y, 0) == clean.at(x, y, 0));  // the object's kept pixels are untouched
+      }
+    CHECK(added == r.halo_pixels);
+    CHECK(removed == r.eroded_pixels);
+  }
+  CHECK(halos > 0);
+  CHECK(erosions > 0);
+}
+
 TEST_CASE("mask error: seeded, and rejects bad settings and images without alpha") {
   MaskErrorSettings st;
   st.blob_prob = 0.5;
@@ -145,6 +195,9 @@ TEST_CASE("mask error: seeded, and rejects bad settings and images without alpha
   bad = st;
   bad.blob_size_min = 0.5;
   bad.blob_size_max = 0.2;
+  CHECK_THROWS_AS(apply_mask_error(a, bad, 1, 1.0f), InvalidInput);
+  bad = st;
+  bad.edge_halo = -0.1;
   CHECK_THROWS_AS(apply_mask_error(a, bad, 1, 1.0f), InvalidInput);
   bad = st;
   bad.thin_radius_max = 0;
