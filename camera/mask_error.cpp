@@ -106,11 +106,12 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
   const uint64_t blob_at = rng.next();
   Texture blob_texture, halo_texture;
   blob_texture.draw(rng);
+  const uint64_t noise_seed = rng.next();
+  // The outline's draws come last: with edge_prob 0 the other choices are those of a run without the outline step.
   const bool edge = rng.uniform() < s.edge_prob;
   const bool halo = rng.uniform() < s.edge_halo;
   const int edge_radius = 1 + static_cast<int>(rng.below(2));
   halo_texture.draw(rng);
-  const uint64_t noise_seed = rng.next();
   if (count == 0) return res;
   Rng noise_rng(noise_seed);
 

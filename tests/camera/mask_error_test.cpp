@@ -187,6 +187,14 @@ TEST_CASE("mask error: seeded, and rejects bad settings and images without alpha
     differs = c.data != a.data;
   }
   CHECK(differs);
+  // The outline's draws come after the others: without the outline step its settings change nothing.
+  MaskErrorSettings no_edge = st;
+  no_edge.edge_prob = 0;
+  Image d = body_and_leg(), e = body_and_leg();
+  apply_mask_error(d, no_edge, 7, 1.0f);
+  no_edge.edge_halo = 0.1;
+  apply_mask_error(e, no_edge, 7, 1.0f);
+  CHECK(d.data == e.data);
   Image rgb(8, 8, 3, 0.0f);
   CHECK_THROWS_AS(apply_mask_error(rgb, st, 1, 1.0f), InvalidInput);
   MaskErrorSettings bad = st;
