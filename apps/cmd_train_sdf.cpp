@@ -93,20 +93,7 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
                  "its principal point leaving the image centre, so that the network meets reframed inputs; 0 = off")
       ->capture_default_str()
       ->check(in_range(0.0, 1.0));
-  app.add_option("--aug-mask-error", s.mask_error.prob,
-                 "probability of showing a training image as recon's composite of a photo with an imperfect mask: its thin "
-                 "parts (what an opening by a disc of 1-3 px removes) each dropped to the background with probability "
-                 "0.7; with probability --mask-error-edge its outline moved by 1-2 px (a textured halo outward, or "
-                 "eroded); with "
-                 "probability 0.3 a textured blob beside the object; applied before the zoom and the "
-                 "reframing, whose crop follows the erroneous mask; the camera and shape stay the true ones; 0 = off")
-      ->capture_default_str()
-      ->check(in_range(0.0, 1.0));
-  app.add_option("--mask-error-edge", s.mask_error.error.edge_prob,
-                 "with --aug-mask-error: probability of moving an image's outline by 1-2 px (0 = thin parts and "
-                 "blobs only)")
-      ->capture_default_str()
-      ->check(in_range(0.0, 1.0));
+  add_mask_error_options(app, s.mask_error);
   app.add_option("--occlusion", o->occlusion,
                  "occlusion augmentation (the occlusion paper's protocol): none; half (the left or right half of the "
                  "object's box removed); rect (a rectangle of 0.25-0.5 of the image side on the object); mixed (half "

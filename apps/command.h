@@ -88,6 +88,9 @@ extern const char* const kSegAgreementHelp;
 /// default text from the settings, and the settings from its value when given ("P,F" or "none"; InvalidInput for
 /// another).
 extern const char* const kSegSureHelp;
+
+/// `--aug-mask-error` and `--mask-error-edge`, the segmentation-error augmentation of `train sdf` and `train pose`.
+void add_mask_error_options(CLI::App& app, MaskErrorAugmentSettings& settings);
 std::string seg_sure_default(const FramingSettings& framing);
 void seg_sure_setting(const CLI::App& app, const std::string& value, FramingSettings& framing);
 

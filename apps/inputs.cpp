@@ -196,4 +196,21 @@ int batch_exit_code(long failed, size_t items) {
   return failed == static_cast<long>(items) && items == 1 ? int(kUserError) : int(kPartialFailure);
 }
 
+void add_mask_error_options(CLI::App& app, MaskErrorAugmentSettings& settings) {
+  app.add_option("--aug-mask-error", settings.prob,
+                 "probability of showing a training image as recon's composite of a photo with an imperfect mask: its "
+                 "thin parts (what an opening by a disc of 1-3 px removes) each dropped to the background with "
+                 "probability 0.7; with probability --mask-error-edge its outline moved by 1-2 px (a textured halo "
+                 "outward, or eroded); with probability 0.3 a textured blob beside the object; applied before the zoom "
+                 "and the reframing, whose crop follows the erroneous mask; the camera and shape stay the true ones; "
+                 "0 = off")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
+  app.add_option("--mask-error-edge", settings.error.edge_prob,
+                 "with --aug-mask-error: probability of moving an image's outline by 1-2 px (0 = thin parts and "
+                 "blobs only)")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
+}
+
 }  // namespace sdfkit::app

@@ -529,11 +529,10 @@ std::string to_string(OcclusionAugmentSettings::Kind kind) {
   return "none";
 }
 
-Eigen::VectorXf occlude_network_image(Eigen::Ref<Eigen::VectorXf> image, int size, const OcclusionSettings& settings,
-                                      uint64_t seed) {
+namespace {
+// RGBA view of a network image (3 * S * S channels-first), the object (alpha 1) being its non-white pixels.
+Image ink_rgba(const Eigen::Ref<const Eigen::VectorXf>& image, int size) {
   const int64_t n = static_cast<int64_t>(size) * size;
-  require(size > 0 && image.size() == 3 * n, "occlusion: the image is not 3 square channels of the given size");
-  // RGBA view of the network image, the object (alpha 1) being its non-white pixels.
   Image rgba(size, size, 4);
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x) {
@@ -544,6 +543,15 @@ Eigen::VectorXf occlude_network_image(Eigen::Ref<Eigen::VectorXf> image, int siz
       rgba.at(x, y, 2) = b;
       rgba.at(x, y, 3) = is_ink(r, g, b) ? 1.0f : 0.0f;
     }
+  return rgba;
+}
+}  // namespace
+
+Eigen::VectorXf occlude_network_image(Eigen::Ref<Eigen::VectorXf> image, int size, const OcclusionSettings& settings,
+                                      uint64_t seed) {
+  const int64_t n = static_cast<int64_t>(size) * size;
+  require(size > 0 && image.size() == 3 * n, "occlusion: the image is not 3 square channels of the given size");
+  Image rgba = ink_rgba(image, size);
   const Image removed = apply_occlusion(rgba, settings, seed);
   Eigen::VectorXf mask(n);
   for (int64_t i = 0; i < n; ++i) {
@@ -604,17 +612,7 @@ void mask_error_images(MatrixXfR& images, const MaskErrorAugmentSettings& m, uin
     const bool apply = rng.uniform() < m.prob;
     const uint64_t error_seed = rng.next();
     if (!apply) return;
-    // RGBA view of the network image, the object (alpha 1) being its non-white pixels.
-    Image rgba(S, S, 4);
-    for (int y = 0; y < S; ++y)
-      for (int x = 0; x < S; ++x) {
-        const int64_t i = static_cast<int64_t>(y) * S + x;
-        const float r = images(b, i), g = images(b, n + i), bl = images(b, 2 * n + i);
-        rgba.at(x, y, 0) = r;
-        rgba.at(x, y, 1) = g;
-        rgba.at(x, y, 2) = bl;
-        rgba.at(x, y, 3) = is_ink(r, g, bl) ? 1.0f : 0.0f;
-      }
+    Image rgba = ink_rgba(images.row(b).transpose(), S);
     apply_mask_error(rgba, m.error, error_seed, kNetBackground);
     for (int y = 0; y < S; ++y)
       for (int x = 0; x < S; ++x) {
