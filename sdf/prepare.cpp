@@ -93,6 +93,18 @@ PreparedSource prepared_source(const std::string& shape_dir) {
     throw IoError(norm_path + ": " + m);
   }
   std::error_code ec;
+  // A relative source was recorded from the folder prep ran in (e.g. a benchmark's root, "meshes/..."): found from
+  // the current folder, else from the nearest folder above the shape that holds it.
+  if (!fs::is_regular_file(src.path, ec) && fs::path(src.path).is_relative()) {
+    for (fs::path up = fs::absolute(shape_dir, ec).lexically_normal(); !up.empty(); up = up.parent_path()) {
+      const fs::path candidate = up / src.path;
+      if (fs::is_regular_file(candidate, ec)) {
+        src.path = candidate.string();
+        break;
+      }
+      if (up == up.root_path()) break;
+    }
+  }
   if (!fs::is_regular_file(src.path, ec))
     throw IoError(src.path + ": the source mesh that " + norm_path + " records does not exist");
   return src;

@@ -70,7 +70,9 @@ struct PreparedSource {
 };
 
 /// The source of a complete prepared shape, without reading the mesh: IoError naming norm.json when it cannot be read
-/// or records no source, no valid "up" or "norm", or naming the source file when it does not exist.
+/// or records no source, no valid "up" or "norm", or naming the source file when it does not exist. A relative
+/// source (recorded from the folder prep ran in) is looked for from the current folder, then from each folder above
+/// the shape, nearest first; `path` is where it was found.
 PreparedSource prepared_source(const std::string& shape_dir);
 
 /// The mesh a complete prepared shape was made from, in its object frame (the views' frame): prepared_source's file

@@ -67,6 +67,39 @@ TEST_CASE("prepare --up z: a z-up file is turned to +y before normalising, and n
   fs::remove_all(dir);
 }
 
+TEST_CASE("prepared_source: a relative source is found from the folders above the shape, whatever the current one") {
+  const fs::path dir = fs::absolute(test::scratch_dir("prepare_relative"));
+  fs::remove_all(dir);
+  // A benchmark's layout: ROOT/meshes/box.ply prepared as "meshes/box.ply" from ROOT into ROOT/prepared/box/box_0.
+  write_mesh((dir / "meshes" / "box.ply").string(), make_box(Vec3(0, 0, 0), Vec3(1, 2, 1)));
+  PrepareSettings s;
+  s.samples.count = 200;
+  s.grid.voxel_size = 0.05;
+  const std::string shape = (dir / "prepared" / "box" / "box_0").string();
+  struct Restore {  // the current folder back, whatever happens
+    fs::path cwd = fs::current_path();
+    ~Restore() { fs::current_path(cwd); }
+  } restore;
+  fs::current_path(dir);
+  prepare_shape("meshes/box.ply", shape, s);
+  CHECK(prepared_source(shape).path == "meshes/box.ply");  // from the folder it was prepared in: as recorded
+  fs::current_path(dir / "prepared");  // elsewhere: found from the shape's ancestors
+  const PreparedSource ps = prepared_source(shape);
+  fs::current_path(restore.cwd);
+  CHECK(fs::equivalent(ps.path, dir / "meshes" / "box.ply"));
+  CHECK(read_prepared_source(ps).V.rows() == read_mesh((dir / "meshes" / "box.ply").string()).V.rows());
+  // A relative source found nowhere is still named.
+  Json j = read_json(ShapeFiles(shape).norm);
+  j["source"] = "meshes/gone.ply";
+  write_json(ShapeFiles(shape).norm, j);
+  try {
+    (void)prepared_source(shape);
+    FAIL("missing relative source: expected an error");
+  } catch (const IoError& e) {
+    CHECK(std::string(e.what()).find("meshes/gone.ply") != std::string::npos);
+  }
+}
+
 TEST_CASE("read_prepared_source: the source mesh in the views' frame with its colours, errors name the file") {
   const fs::path dir = test::scratch_dir("prepare_source");
   fs::remove_all(dir);
