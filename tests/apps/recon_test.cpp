@@ -40,10 +40,9 @@ bool have_models() {
 }  // namespace
 
 // Issue 8: recon of a shipped example reaches IoU > 0.5 against its GT with the shipped models (a check of the
-// model, not only of the code path), and the true camera is at least as good. Measured with the shipped models
-// (data/models/sdf.md, pose.md) on car_0021, a test-split shape, at 65^3: 0.868 with the true camera, 0.865 with
-// the estimated one. Both cameras are
-// asserted above 0.5.
+// model, not only of the code path). Measured with the shipped models (data/models/sdf.md, pose.md) on car_0021, a
+// test-split shape, at 65^3: 0.874 with the true camera, 0.875 with the estimated one. Both cameras are asserted
+// above 0.5.
 TEST_CASE("recon of a shipped example with the shipped models: IoU > 0.5 with the true camera, closed mesh") {
   REQUIRE_MESSAGE(have_models(), "the shipped models data/models/sdf.ckpt and pose.ckpt are missing");
   const fs::path dir = test::scratch_dir("recon_cli") / "example";
