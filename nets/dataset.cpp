@@ -89,6 +89,13 @@ Eigen::VectorXf network_image(const Image& image, int size) {
   // footprint size when shrinking, bilinear interpolation when enlarging): pixel centres map as
   // x_in = (x_out + 0.5) * W / size - 0.5.
   Eigen::VectorXf out(3 * size * size);
+  if (W == size && H == size) {  // the footprints are the pixels: a copy to planar order (what the filter gives)
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x)
+        for (int c = 0; c < 3; ++c)
+          out[(static_cast<Eigen::Index>(c) * size + y) * size + x] = rgb[(static_cast<size_t>(y) * W + x) * 3 + c];
+    return out;
+  }
   const double sx = static_cast<double>(W) / size, sy = static_cast<double>(H) / size;
   auto sample = [&](double fx, double fy, int c) {  // bilinear, clamped
     fx = std::clamp(fx, 0.0, W - 1.0);

@@ -14,6 +14,17 @@ constexpr int64_t kMaxReduceChunks = 8;
 template <typename T>
 using ColMajor = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>;
 
+// Where chunk c of a backward pass accumulates its parameter gradient: with several chunks a zeroed buffer of its
+// own (partials holds one per chunk, summed by add_partials), with a single chunk (partials empty) the layer's
+// gradient itself, which saves zeroing and adding a buffer of the layer's size; g += a + b then becomes
+// (g + a) + b, the same bytes when g starts at zero, as it does in every trainer's step.
+template <typename T>
+T* chunk_gradient(std::vector<AlignedVector<T>>& partials, size_t c, size_t n, T* g) {
+  if (partials.empty()) return g;
+  partials[c].assign(n, T(0));
+  return partials[c].data();
+}
+
 // Sum per-chunk partial gradients into g in chunk order (deterministic for any thread count).
 template <typename T>
 void add_partials(const std::vector<AlignedVector<T>>& partials, T* g, size_t n) {
@@ -26,6 +37,17 @@ void add_partials(const std::vector<AlignedVector<T>>& partials, T* g, size_t n)
 // ----------------------------------------------------------------------------------------------- Conv2d
 namespace {
 
+// The output columns [lo, hi) of a kernel offset kj whose input column ox * s - p + kj lies inside [0, W); the
+// columns outside are the zero padding.
+inline void valid_columns(int W, int s, int p, int kj, int Wo, int* lo, int* hi) {
+  const int off = kj - p;  // input column of output column 0
+  // ox * s + off >= 0  <=>  ox >= ceil(-off / s);  ox * s + off <= W - 1  <=>  ox <= floor((W - 1 - off) / s).
+  const int first = off >= 0 ? 0 : (-off + s - 1) / s;
+  const int last = (W - 1 - off) >= 0 ? (W - 1 - off) / s : -1;
+  *lo = std::min(Wo, first);
+  *hi = std::max(*lo, std::min(Wo, last + 1));
+}
+
 // col is (C*k*k) x (Ho*Wo), row-major.
 template <typename T>
 void im2col(const T* x, int C, int H, int W, int k, int s, int p, int Ho, int Wo, T* col) {
@@ -34,6 +56,9 @@ void im2col(const T* x, int C, int H, int W, int k, int s, int p, int Ho, int Wo
       for (int kj = 0; kj < k; ++kj) {
         T* row = col + (static_cast<int64_t>(c * k + ki) * k + kj) * Ho * Wo;
         const T* plane = x + static_cast<int64_t>(c) * H * W;
+        int lo = 0, hi = 0;
+        valid_columns(W, s, p, kj, Wo, &lo, &hi);
+        const int off = kj - p;
         for (int oy = 0; oy < Ho; ++oy) {
           const int iy = oy * s - p + ki;
           T* out = row + static_cast<int64_t>(oy) * Wo;
@@ -42,10 +67,13 @@ void im2col(const T* x, int C, int H, int W, int k, int s, int p, int Ho, int Wo
             continue;
           }
           const T* in = plane + static_cast<int64_t>(iy) * W;
-          for (int ox = 0; ox < Wo; ++ox) {
-            const int ix = ox * s - p + kj;
-            out[ox] = (ix >= 0 && ix < W) ? in[ix] : T(0);
+          std::fill(out, out + lo, T(0));
+          if (s == 1) {
+            if (hi > lo) std::copy(in + (lo + off), in + (hi + off), out + lo);
+          } else {
+            for (int ox = lo; ox < hi; ++ox) out[ox] = in[ox * s + off];
           }
+          std::fill(out + hi, out + Wo, T(0));
         }
       }
 }
@@ -58,14 +86,19 @@ void col2im(const T* col, int C, int H, int W, int k, int s, int p, int Ho, int 
       for (int kj = 0; kj < k; ++kj) {
         const T* row = col + (static_cast<int64_t>(c * k + ki) * k + kj) * Ho * Wo;
         T* plane = dx + static_cast<int64_t>(c) * H * W;
+        int lo = 0, hi = 0;
+        valid_columns(W, s, p, kj, Wo, &lo, &hi);
+        const int off = kj - p;
         for (int oy = 0; oy < Ho; ++oy) {
           const int iy = oy * s - p + ki;
           if (iy < 0 || iy >= H) continue;
           const T* in = row + static_cast<int64_t>(oy) * Wo;
           T* out = plane + static_cast<int64_t>(iy) * W;
-          for (int ox = 0; ox < Wo; ++ox) {
-            const int ix = ox * s - p + kj;
-            if (ix >= 0 && ix < W) out[ix] += in[ox];
+          if (s == 1 && hi > lo) {
+            T* o = out + (lo + off);
+            for (int ox = lo; ox < hi; ++ox) o[ox - lo] += in[ox];
+          } else if (s != 1) {
+            for (int ox = lo; ox < hi; ++ox) out[ox * s + off] += in[ox];
           }
         }
       }
@@ -157,12 +190,11 @@ void Conv2d<T>::backward(const TensorT<T>& x, const TensorT<T>& y, const TensorT
   ConstMatMapT<T> Wm(this->w_, O, CK);
   const auto chunks = fixed_chunks(x.batch(), 1, kMaxReduceChunks);
   const size_t np = n_params();
-  std::vector<AlignedVector<T>> partial(chunks.size());
+  std::vector<AlignedVector<T>> partial(chunks.size() > 1 ? chunks.size() : 0);
   parallel_chunks(chunks, [&](size_t c, int64_t begin, int64_t end) {
-    AlignedVector<T>& g = partial[c];
-    g.assign(np, T(0));
-    MatMapT<T> gW(g.data(), O, CK);
-    AlignedVector<T> col, dcol;
+    T* g = chunk_gradient(partial, c, np, this->g_);
+    MatMapT<T> gW(g, O, CK);
+    thread_local AlignedVector<T> col, dcol;
     for (int64_t n = begin; n < end; ++n) {
       const T* colp = x.item(n);
       if (!direct) {
@@ -258,15 +290,13 @@ void Linear<T>::backward(const TensorT<T>& x, const TensorT<T>& y, const TensorT
   if (dx) dx->resize(x.shape);
   const auto chunks = fixed_chunks(R, kLinearMinRows, kMaxReduceChunks);
   const size_t np = n_params();
-  std::vector<AlignedVector<T>> partial(chunks.size());
+  std::vector<AlignedVector<T>> partial(chunks.size() > 1 ? chunks.size() : 0);
   parallel_chunks(chunks, [&](size_t c, int64_t r0, int64_t r1) {
-    AlignedVector<T>& g = partial[c];
-    g.assign(np, T(0));
+    T* g = chunk_gradient(partial, c, np, this->g_);
     ConstMatMapT<T> dY(dy.ptr() + r0 * O, r1 - r0, O);
     ConstMatMapT<T> X(x.ptr() + r0 * I, r1 - r0, I);
-    MatMapT<T>(g.data(), O, I).noalias() = dY.transpose() * X;
-    if (s_.bias)
-      Eigen::Map<Eigen::Matrix<T, 1, Eigen::Dynamic>>(g.data() + O * I, O) = dY.colwise().sum();
+    MatMapT<T>(g, O, I).noalias() += dY.transpose() * X;
+    if (s_.bias) Eigen::Map<Eigen::Matrix<T, 1, Eigen::Dynamic>>(g + O * I, O) += dY.colwise().sum();
     if (dx) MatMapT<T>(dx->ptr() + r0 * I, r1 - r0, I).noalias() = dY * Wm;
   });
   add_partials(partial, this->g_, np);

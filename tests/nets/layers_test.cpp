@@ -23,32 +23,80 @@ TEST_CASE("conv2d gradients: stride, padding, 1x1 fast path") {
   }
 }
 
-TEST_CASE("conv2d forward equals a direct convolution loop") {
-  Conv2d<double> conv({2, 3, 3, 2, 1, true});
-  ParamStore<double> store;
-  store.add(conv);
-  store.allocate(false);
-  store.init(5);
-  for (int o = 0; o < 3; ++o) store.values[2 * 9 * 3 + o] = 0.5 * o;  // biases
-  const TensorD x = random_tensor({2, 2, 7, 6}, 3);
-  TensorD y;
-  conv.forward(x, y);
-  REQUIRE(y.shape == Shape({2, 3, 4, 3}));
-  const double* w = store.values.data();
-  for (int n = 0; n < 2; ++n)
-    for (int o = 0; o < 3; ++o)
-      for (int oy = 0; oy < 4; ++oy)
-        for (int ox = 0; ox < 3; ++ox) {
-          double acc = 0.5 * o;
-          for (int c = 0; c < 2; ++c)
-            for (int ki = 0; ki < 3; ++ki)
-              for (int kj = 0; kj < 3; ++kj) {
-                const int iy = oy * 2 - 1 + ki, ix = ox * 2 - 1 + kj;
-                if (iy < 0 || iy >= 7 || ix < 0 || ix >= 6) continue;
-                acc += w[((o * 2 + c) * 3 + ki) * 3 + kj] * x[((n * 2 + c) * 7 + iy) * 6 + ix];
-              }
-          CHECK(y[((n * 3 + o) * 4 + oy) * 3 + ox] == doctest::Approx(acc).epsilon(1e-12));
-        }
+TEST_CASE("conv2d forward and input gradient equal direct convolution loops") {
+  // im2col / col2im copy the rows' inner columns in one run and pad the edges: cover kernels reaching past both
+  // edges, strides that skip the last column, padding wider than the kernel's reach (columns of padding only)
+  // and 1-pixel-wide inputs.
+  for (const auto& [k, st, p, H, W] : {std::tuple{3, 2, 1, 7, 6}, std::tuple{5, 2, 2, 9, 11}, std::tuple{3, 1, 1, 5, 4},
+                                       std::tuple{2, 3, 3, 6, 5}, std::tuple{1, 2, 0, 5, 7}, std::tuple{3, 1, 2, 4, 1},
+                                       std::tuple{4, 2, 0, 8, 9}}) {
+    CAPTURE(k);
+    CAPTURE(st);
+    CAPTURE(p);
+    CAPTURE(W);
+    const int C = 2, O = 3, N = 2;
+    Conv2d<double> conv({C, O, k, st, p, true});
+    ParamStore<double> store;
+    store.add(conv);
+    store.allocate(true);
+    store.init(5);
+    const int CKK = C * k * k;
+    for (int o = 0; o < O; ++o) store.values[static_cast<size_t>(O * CKK + o)] = 0.5 * o;  // biases
+    const TensorD x = random_tensor({N, C, H, W}, 3);
+    TensorD y;
+    conv.forward(x, y);
+    const int Ho = (H + 2 * p - k) / st + 1, Wo = (W + 2 * p - k) / st + 1;
+    REQUIRE(y.shape == Shape({N, O, Ho, Wo}));
+    const TensorD dy = random_tensor({N, O, Ho, Wo}, 4);
+    TensorD dx;
+    conv.backward(x, y, dy, &dx);
+    REQUIRE(dx.shape == x.shape);
+    std::vector<double> dx_ref(static_cast<size_t>(x.size()), 0.0);
+    const double* w = store.values.data();
+    for (int n = 0; n < N; ++n)
+      for (int o = 0; o < O; ++o)
+        for (int oy = 0; oy < Ho; ++oy)
+          for (int ox = 0; ox < Wo; ++ox) {
+            double acc = 0.5 * o;
+            const double g = dy[((n * O + o) * Ho + oy) * Wo + ox];
+            for (int c = 0; c < C; ++c)
+              for (int ki = 0; ki < k; ++ki)
+                for (int kj = 0; kj < k; ++kj) {
+                  const int iy = oy * st - p + ki, ix = ox * st - p + kj;
+                  if (iy < 0 || iy >= H || ix < 0 || ix >= W) continue;
+                  const double wv = w[((o * C + c) * k + ki) * k + kj];
+                  const int xi = ((n * C + c) * H + iy) * W + ix;
+                  acc += wv * x[xi];
+                  dx_ref[static_cast<size_t>(xi)] += wv * g;
+                }
+            CHECK(y[((n * O + o) * Ho + oy) * Wo + ox] == doctest::Approx(acc).epsilon(1e-12));
+          }
+    for (int64_t i = 0; i < x.size(); ++i) CHECK(dx[i] == doctest::Approx(dx_ref[static_cast<size_t>(i)]).epsilon(1e-12));
+  }
+}
+
+TEST_CASE("conv2d and linear backward add to the gradient already there, one chunk or several") {
+  // A batch of one item is reduced in place (no partial buffer); larger batches through per-chunk buffers.
+  for (const int batch : {1, 3}) {
+    CAPTURE(batch);
+    Conv2d<double> conv({2, 3, 3, 2, 1, true});
+    Linear<double> lin(5, 4);
+    for (int which = 0; which < 2; ++which) {
+      Layer<double>& layer = which == 0 ? static_cast<Layer<double>&>(conv) : static_cast<Layer<double>&>(lin);
+      ParamStore<double> store;
+      store.add(layer);
+      store.allocate(true);
+      store.init(7);
+      const TensorD x = which == 0 ? random_tensor({batch, 2, 7, 6}, 8) : random_tensor({batch, 5}, 8);
+      TensorD y;
+      layer.forward(x, y);
+      const TensorD dy = random_tensor(y.shape, 9);
+      layer.backward(x, y, dy, nullptr);
+      const std::vector<double> once(store.grads.begin(), store.grads.end());
+      layer.backward(x, y, dy, nullptr);
+      for (size_t i = 0; i < once.size(); ++i) CHECK(store.grads[i] == doctest::Approx(2 * once[i]).epsilon(1e-12));
+    }
+  }
 }
 
 TEST_CASE("linear / point MLP gradients on N x P x C") {
