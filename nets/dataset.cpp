@@ -396,6 +396,23 @@ Eigen::VectorXf resample_similarity(const Eigen::Ref<const Eigen::VectorXf>& ima
   const int n = k >= 1 ? 1 : 2;
   const double* sub = k >= 1 ? kOne : kTwo;
   const double weight = 1.0 / (n * n);
+  // Continuous source coordinates with pixel centres at integers: the column of output column x's sub-sample s
+  // depends on x alone, the row on y alone, so both are found once for all rows, columns and channels.
+  struct Tap {
+    int i0;      // first source pixel (clamped to [-2, size + 1], where the image is white)
+    double f;    // weight of the second
+  };
+  const auto taps = [&](double m, double d) {
+    std::vector<Tap> t(static_cast<size_t>(size) * n);
+    for (int x = 0; x < size; ++x)
+      for (int s = 0; s < n; ++s) {
+        const double u = m + (x + 0.5 + sub[s] - d) / k - 0.5;
+        const double fu = std::floor(u);
+        t[static_cast<size_t>(x) * n + s] = {static_cast<int>(std::max(-2.0, std::min(fu, double(size) + 1))), u - fu};
+      }
+    return t;
+  };
+  const std::vector<Tap> cols = taps(mx, dx), rows = taps(my, dy);
   for (int ch = 0; ch < 3; ++ch) {
     const float* src = image.data() + ch * plane;
     float* dst = out.data() + ch * plane;
@@ -404,13 +421,10 @@ Eigen::VectorXf resample_similarity(const Eigen::Ref<const Eigen::VectorXf>& ima
         double acc = 0;
         for (int sy = 0; sy < n; ++sy)
           for (int sx = 0; sx < n; ++sx) {
-            const double ox = sub[sx], oy = sub[sy];
-            // Continuous source coordinates with pixel centres at integers.
-            const double u = mx + (x + 0.5 + ox - dx) / k - 0.5, v = my + (y + 0.5 + oy - dy) / k - 0.5;
-            const double fu = std::floor(u), fv = std::floor(v);
-            const int x0 = static_cast<int>(std::max(-2.0, std::min(fu, double(size) + 1)));
-            const int y0 = static_cast<int>(std::max(-2.0, std::min(fv, double(size) + 1)));
-            const double a = u - fu, b = v - fv;
+            const Tap& c = cols[static_cast<size_t>(x) * n + sx];
+            const Tap& r = rows[static_cast<size_t>(y) * n + sy];
+            const int x0 = c.i0, y0 = r.i0;
+            const double a = c.f, b = r.f;
             acc += (1 - b) * ((1 - a) * at(src, x0, y0) + a * at(src, x0 + 1, y0)) +
                    b * ((1 - a) * at(src, x0, y0 + 1) + a * at(src, x0 + 1, y0 + 1));
           }

@@ -48,17 +48,36 @@ inline void valid_columns(int W, int s, int p, int kj, int Wo, int* lo, int* hi)
   *hi = std::max(*lo, std::min(Wo, last + 1));
 }
 
+// A strided convolution reads every s-th input column. With each input row split into its s phases (columns r,
+// r + s, r + 2s, ... stored one after another, each Wp = ceil(W / s) long), a run of output columns reads a run of
+// consecutive values of one phase: input column ox * s + off is entry ox + q of phase r, where off = q * s + r.
+inline void phase_of(int off, int s, int* r, int* q) {
+  *r = ((off % s) + s) % s;
+  *q = (off - *r) / s;
+}
+
 // col is (C*k*k) x (Ho*Wo), row-major.
 template <typename T>
 void im2col(const T* x, int C, int H, int W, int k, int s, int p, int Ho, int Wo, T* col) {
-  for (int c = 0; c < C; ++c)
+  const int Wp = (W + s - 1) / s;
+  thread_local std::vector<T> split;  // one channel's rows split into phases (stride > 1)
+  if (s > 1) split.resize(static_cast<size_t>(H) * s * Wp);
+  for (int c = 0; c < C; ++c) {
+    const T* plane = x + static_cast<int64_t>(c) * H * W;
+    if (s > 1)
+      for (int iy = 0; iy < H; ++iy) {
+        const T* in = plane + static_cast<int64_t>(iy) * W;
+        T* o = split.data() + static_cast<int64_t>(iy) * s * Wp;
+        for (int r = 0; r < s; ++r)
+          for (int j = r, i = r * Wp; j < W; j += s, ++i) o[i] = in[j];
+      }
     for (int ki = 0; ki < k; ++ki)
       for (int kj = 0; kj < k; ++kj) {
         T* row = col + (static_cast<int64_t>(c * k + ki) * k + kj) * Ho * Wo;
-        const T* plane = x + static_cast<int64_t>(c) * H * W;
-        int lo = 0, hi = 0;
+        int lo = 0, hi = 0, r = 0, q = 0;
         valid_columns(W, s, p, kj, Wo, &lo, &hi);
         const int off = kj - p;
+        phase_of(off, s, &r, &q);
         for (int oy = 0; oy < Ho; ++oy) {
           const int iy = oy * s - p + ki;
           T* out = row + static_cast<int64_t>(oy) * Wo;
@@ -66,42 +85,52 @@ void im2col(const T* x, int C, int H, int W, int k, int s, int p, int Ho, int Wo
             std::fill(out, out + Wo, T(0));
             continue;
           }
-          const T* in = plane + static_cast<int64_t>(iy) * W;
           std::fill(out, out + lo, T(0));
-          if (s == 1) {
-            if (hi > lo) std::copy(in + (lo + off), in + (hi + off), out + lo);
-          } else {
-            for (int ox = lo; ox < hi; ++ox) out[ox] = in[ox * s + off];
+          if (hi > lo) {
+            const T* src = s == 1 ? plane + static_cast<int64_t>(iy) * W + (lo + off)
+                                  : split.data() + (static_cast<int64_t>(iy) * s + r) * Wp + (lo + q);
+            std::copy(src, src + (hi - lo), out + lo);
           }
           std::fill(out + hi, out + Wo, T(0));
         }
       }
+  }
 }
 
-// dx (C x H x W) += scatter of dcol; dx must be zeroed by the caller.
+// dx (C x H x W) += scatter of dcol; dx must be zeroed by the caller. With stride > 1 the sums build up in the
+// phase layout (the same additions in the same order) and are moved to dx at the end of each channel.
 template <typename T>
 void col2im(const T* col, int C, int H, int W, int k, int s, int p, int Ho, int Wo, T* dx) {
-  for (int c = 0; c < C; ++c)
+  const int Wp = (W + s - 1) / s;
+  thread_local std::vector<T> split;
+  for (int c = 0; c < C; ++c) {
+    T* plane = dx + static_cast<int64_t>(c) * H * W;
+    if (s > 1) split.assign(static_cast<size_t>(H) * s * Wp, T(0));
     for (int ki = 0; ki < k; ++ki)
       for (int kj = 0; kj < k; ++kj) {
         const T* row = col + (static_cast<int64_t>(c * k + ki) * k + kj) * Ho * Wo;
-        T* plane = dx + static_cast<int64_t>(c) * H * W;
-        int lo = 0, hi = 0;
+        int lo = 0, hi = 0, r = 0, q = 0;
         valid_columns(W, s, p, kj, Wo, &lo, &hi);
+        if (hi <= lo) continue;
         const int off = kj - p;
+        phase_of(off, s, &r, &q);
         for (int oy = 0; oy < Ho; ++oy) {
           const int iy = oy * s - p + ki;
           if (iy < 0 || iy >= H) continue;
-          const T* in = row + static_cast<int64_t>(oy) * Wo;
-          T* out = plane + static_cast<int64_t>(iy) * W;
-          if (s == 1 && hi > lo) {
-            T* o = out + (lo + off);
-            for (int ox = lo; ox < hi; ++ox) o[ox - lo] += in[ox];
-          } else if (s != 1) {
-            for (int ox = lo; ox < hi; ++ox) out[ox * s + off] += in[ox];
-          }
+          const T* in = row + static_cast<int64_t>(oy) * Wo + lo;
+          T* dst = s == 1 ? plane + static_cast<int64_t>(iy) * W + (lo + off)
+                          : split.data() + (static_cast<int64_t>(iy) * s + r) * Wp + (lo + q);
+          for (int i = 0; i < hi - lo; ++i) dst[i] += in[i];
         }
       }
+    if (s > 1)
+      for (int iy = 0; iy < H; ++iy) {
+        T* out = plane + static_cast<int64_t>(iy) * W;
+        const T* o = split.data() + static_cast<int64_t>(iy) * s * Wp;
+        for (int r = 0; r < s; ++r)
+          for (int j = r, i = r * Wp; j < W; j += s, ++i) out[j] += o[i];
+      }
+  }
 }
 
 }  // namespace
