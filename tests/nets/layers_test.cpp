@@ -27,9 +27,11 @@ TEST_CASE("conv2d forward and input gradient equal direct convolution loops") {
   // im2col / col2im copy the rows' inner columns in one run and pad the edges: cover kernels reaching past both
   // edges, strides that skip the last column, padding wider than the kernel's reach (columns of padding only)
   // and 1-pixel-wide inputs.
-  for (const auto& [k, st, p, H, W] : {std::tuple{3, 2, 1, 7, 6}, std::tuple{5, 2, 2, 9, 11}, std::tuple{3, 1, 1, 5, 4},
-                                       std::tuple{2, 3, 3, 6, 5}, std::tuple{1, 2, 0, 5, 7}, std::tuple{3, 1, 2, 4, 1},
-                                       std::tuple{4, 2, 0, 8, 9}}) {
+  for (const auto& c : {std::tuple{3, 2, 1, 7, 6}, std::tuple{5, 2, 2, 9, 11}, std::tuple{3, 1, 1, 5, 4},
+                        std::tuple{2, 3, 3, 6, 5}, std::tuple{1, 2, 0, 5, 7}, std::tuple{3, 1, 2, 4, 1},
+                        std::tuple{4, 2, 0, 8, 9}}) {
+    // Plain variables, not structured bindings: clang 14 cannot capture those in CAPTURE's lambda.
+    const int k = std::get<0>(c), st = std::get<1>(c), p = std::get<2>(c), H = std::get<3>(c), W = std::get<4>(c);
     CAPTURE(k);
     CAPTURE(st);
     CAPTURE(p);
