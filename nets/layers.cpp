@@ -37,23 +37,35 @@ void add_partials(const std::vector<AlignedVector<T>>& partials, T* g, size_t n)
 // ----------------------------------------------------------------------------------------------- Conv2d
 namespace {
 
-// The output columns [lo, hi) of a kernel offset kj whose input column ox * s - p + kj lies inside [0, W); the
-// columns outside are the zero padding.
-inline void valid_columns(int W, int s, int p, int kj, int Wo, int* lo, int* hi) {
+// The output columns of kernel offset kj that read inside the input row, [lo, hi) (the others read the zero
+// padding), and where their values lie. With stride 1 they are consecutive in the row. A strided convolution reads
+// every s-th input column; with each input row split into its s phases (columns r, r + s, r + 2s, ... stored one
+// after another, each Wp = ceil(W / s) long) they are consecutive in one phase: input column ox * s + off is entry
+// ox + q of phase r, where off = q * s + r. Output column lo of input row iy reads entry at(iy) of the plane (stride
+// 1) or of the phase layout (stride > 1).
+struct ColumnRun {
+  int lo = 0, hi = 0;
+  int64_t row_stride = 0, first = 0;
+  [[nodiscard]] int64_t at(int iy) const { return iy * row_stride + first; }
+};
+
+inline ColumnRun column_run(int W, int s, int p, int kj, int Wo) {
+  ColumnRun run;
   const int off = kj - p;  // input column of output column 0
   // ox * s + off >= 0  <=>  ox >= ceil(-off / s);  ox * s + off <= W - 1  <=>  ox <= floor((W - 1 - off) / s).
   const int first = off >= 0 ? 0 : (-off + s - 1) / s;
   const int last = (W - 1 - off) >= 0 ? (W - 1 - off) / s : -1;
-  *lo = std::min(Wo, first);
-  *hi = std::max(*lo, std::min(Wo, last + 1));
-}
-
-// A strided convolution reads every s-th input column. With each input row split into its s phases (columns r,
-// r + s, r + 2s, ... stored one after another, each Wp = ceil(W / s) long), a run of output columns reads a run of
-// consecutive values of one phase: input column ox * s + off is entry ox + q of phase r, where off = q * s + r.
-inline void phase_of(int off, int s, int* r, int* q) {
-  *r = ((off % s) + s) % s;
-  *q = (off - *r) / s;
+  run.lo = std::min(Wo, first);
+  run.hi = std::max(run.lo, std::min(Wo, last + 1));
+  if (s == 1) {
+    run.row_stride = W;
+    run.first = run.lo + off;
+  } else {
+    const int wp = (W + s - 1) / s, r = ((off % s) + s) % s, q = (off - r) / s;
+    run.row_stride = static_cast<int64_t>(s) * wp;
+    run.first = static_cast<int64_t>(r) * wp + run.lo + q;
+  }
+  return run;
 }
 
 // col is (C*k*k) x (Ho*Wo), row-major.
@@ -74,10 +86,8 @@ void im2col(const T* x, int C, int H, int W, int k, int s, int p, int Ho, int Wo
     for (int ki = 0; ki < k; ++ki)
       for (int kj = 0; kj < k; ++kj) {
         T* row = col + (static_cast<int64_t>(c * k + ki) * k + kj) * Ho * Wo;
-        int lo = 0, hi = 0, r = 0, q = 0;
-        valid_columns(W, s, p, kj, Wo, &lo, &hi);
-        const int off = kj - p;
-        phase_of(off, s, &r, &q);
+        const ColumnRun run = column_run(W, s, p, kj, Wo);
+        const T* source = s == 1 ? plane : split.data();
         for (int oy = 0; oy < Ho; ++oy) {
           const int iy = oy * s - p + ki;
           T* out = row + static_cast<int64_t>(oy) * Wo;
@@ -85,13 +95,9 @@ void im2col(const T* x, int C, int H, int W, int k, int s, int p, int Ho, int Wo
             std::fill(out, out + Wo, T(0));
             continue;
           }
-          std::fill(out, out + lo, T(0));
-          if (hi > lo) {
-            const T* src = s == 1 ? plane + static_cast<int64_t>(iy) * W + (lo + off)
-                                  : split.data() + (static_cast<int64_t>(iy) * s + r) * Wp + (lo + q);
-            std::copy(src, src + (hi - lo), out + lo);
-          }
-          std::fill(out + hi, out + Wo, T(0));
+          std::fill(out, out + run.lo, T(0));
+          if (run.hi > run.lo) std::copy_n(source + run.at(iy), run.hi - run.lo, out + run.lo);
+          std::fill(out + run.hi, out + Wo, T(0));
         }
       }
   }
@@ -109,18 +115,15 @@ void col2im(const T* col, int C, int H, int W, int k, int s, int p, int Ho, int 
     for (int ki = 0; ki < k; ++ki)
       for (int kj = 0; kj < k; ++kj) {
         const T* row = col + (static_cast<int64_t>(c * k + ki) * k + kj) * Ho * Wo;
-        int lo = 0, hi = 0, r = 0, q = 0;
-        valid_columns(W, s, p, kj, Wo, &lo, &hi);
-        if (hi <= lo) continue;
-        const int off = kj - p;
-        phase_of(off, s, &r, &q);
+        const ColumnRun run = column_run(W, s, p, kj, Wo);
+        if (run.hi <= run.lo) continue;
+        T* target = s == 1 ? plane : split.data();
         for (int oy = 0; oy < Ho; ++oy) {
           const int iy = oy * s - p + ki;
           if (iy < 0 || iy >= H) continue;
-          const T* in = row + static_cast<int64_t>(oy) * Wo + lo;
-          T* dst = s == 1 ? plane + static_cast<int64_t>(iy) * W + (lo + off)
-                          : split.data() + (static_cast<int64_t>(iy) * s + r) * Wp + (lo + q);
-          for (int i = 0; i < hi - lo; ++i) dst[i] += in[i];
+          const T* in = row + static_cast<int64_t>(oy) * Wo + run.lo;
+          T* dst = target + run.at(iy);
+          for (int i = 0; i < run.hi - run.lo; ++i) dst[i] += in[i];
         }
       }
     if (s > 1)

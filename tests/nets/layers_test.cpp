@@ -78,7 +78,8 @@ TEST_CASE("conv2d forward and input gradient equal direct convolution loops") {
 }
 
 TEST_CASE("conv2d and linear backward add to the gradient already there, one chunk or several") {
-  // A batch of one item is reduced in place (no partial buffer); larger batches through per-chunk buffers.
+  // A batch of one item (a linear layer: up to 256 rows) is reduced in place, with no partial buffer; larger ones
+  // through per-chunk buffers (here 3 chunks each).
   for (const int batch : {1, 3}) {
     CAPTURE(batch);
     Conv2d<double> conv({2, 3, 3, 2, 1, true});
@@ -89,7 +90,7 @@ TEST_CASE("conv2d and linear backward add to the gradient already there, one chu
       store.add(layer);
       store.allocate(true);
       store.init(7);
-      const TensorD x = which == 0 ? random_tensor({batch, 2, 7, 6}, 8) : random_tensor({batch, 5}, 8);
+      const TensorD x = which == 0 ? random_tensor({batch, 2, 7, 6}, 8) : random_tensor({batch, 300, 5}, 8);
       TensorD y;
       layer.forward(x, y);
       const TensorD dy = random_tensor(y.shape, 9);
