@@ -16,6 +16,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <cstdio>
 #include <iomanip>
 #include <iostream>
@@ -115,6 +116,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
     ds.split = o->split;
     const Dataset data(ds);
     Json symmetries = Json::object();  // shape id -> the turns (degrees) found to be symmetries
+    std::mutex symmetries_mutex;       // evaluate_pose asks for several shapes at once
     if (o->symmetry)
       o->e.symmetries = [&](const ShapeEntry& shape) {
         std::vector<Mat3> group;
@@ -124,6 +126,7 @@ std::function<int()> setup_eval_pose(CLI::App& app) {
             group.push_back(r.R);
             degrees.push_back(r.degrees);
           }
+        const std::lock_guard<std::mutex> lock(symmetries_mutex);
         symmetries[shape.id] = degrees;
         return group;
       };

@@ -417,11 +417,12 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
   require(!items.empty(), data.root() + ": no views to evaluate");
   std::vector<PointsF> shape_points(data.size());
   std::vector<std::vector<Mat3>> shape_symmetries(data.size());
-  for (size_t s = 0; s < data.size(); ++s) {
+  // Per shape, in parallel: its points and (found once per shape, minutes for thousands of meshes) its symmetries.
+  tbb::parallel_for(size_t(0), data.size(), [&](size_t s) {
     Eigen::VectorXf d;
     draw_samples(data.samples(s), es.points, Rng::mix(es.seed + 1000003ULL * s), shape_points[s], d);
     if (es.symmetries) shape_symmetries[s] = es.symmetries(data.shape(s));
-  }
+  });
   // Fixed chunks of es.batch items, chunk c on replica c mod R (replicas share net's values): every chunk is computed
   // as in a serial run, so the scores do not depend on the thread count.
   const int S = net.settings().image_size;

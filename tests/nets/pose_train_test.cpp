@@ -374,7 +374,7 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
   }
 
   // The half turn for the car only; the source is asked once per shape.
-  int calls = 0;
+  std::atomic<int> calls{0};  // called from several threads at once
   es.symmetries = [&](const ShapeEntry& shape) {
     ++calls;
     return shape.category == "car" ? std::vector<Mat3>{half} : std::vector<Mat3>{};
