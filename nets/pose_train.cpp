@@ -52,6 +52,30 @@ std::vector<PointsF> split_points(const SdfBatch& batch) {
 
 Points to_double(const PointsF& p) { return p.cast<double>(); }
 
+using SymmetrySource = std::function<std::vector<Mat3>(const ShapeEntry&)>;
+
+/// Each entry's symmetry group from `source` (empty groups without one), asked once per shape folder and for
+/// several shapes at once: a list that names a shape several times (to draw it more often) shares the first entry's
+/// group. *first_entries (when given) gets the first entry of each shape.
+std::vector<std::vector<Mat3>> symmetry_groups(const Dataset& data, const SymmetrySource& source,
+                                               std::vector<size_t>* first_entries = nullptr) {
+  std::vector<std::vector<Mat3>> groups(data.size());
+  std::vector<size_t> unique, first_of(data.size());
+  std::map<std::string, size_t> first;
+  for (size_t i = 0; i < data.size(); ++i) {
+    const auto [it, fresh] = first.emplace(data.shape(i).dir, i);
+    first_of[i] = it->second;
+    if (fresh) unique.push_back(i);
+  }
+  if (source) {
+    tbb::parallel_for(size_t(0), unique.size(), [&](size_t k) { groups[unique[k]] = source(data.shape(unique[k])); });
+    for (size_t i = 0; i < data.size(); ++i)
+      if (first_of[i] != i) groups[i] = groups[first_of[i]];
+  }
+  if (first_entries) *first_entries = std::move(unique);
+  return groups;
+}
+
 struct ValSet {
   MatrixXfR images;
   std::vector<PointsF> points;
@@ -226,25 +250,9 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   bs.points_per_shape = s.points;
   bs.seed = s.seed;
   const BatchSampler sampler(train, bs);
-  // Each training shape's symmetry group, once per shape (read from its files by the caller's function), in
-  // parallel; a split that lists a shape several times (to draw it more often) shares the first entry's group.
-  std::vector<std::vector<Mat3>> groups(train.size());
+  // Each training shape's symmetry group (read from its files by the caller's function).
   std::vector<size_t> unique;  // the first entry of each shape
-  {
-    std::map<std::string, size_t> first;
-    std::vector<size_t> source(train.size());
-    for (size_t i = 0; i < train.size(); ++i) {
-      const auto [it, fresh] = first.emplace(train.shape(i).dir, i);
-      source[i] = it->second;
-      if (fresh) unique.push_back(i);
-    }
-    if (s.symmetries) {
-      tbb::parallel_for(size_t(0), unique.size(),
-                        [&](size_t k) { groups[unique[k]] = s.symmetries(train.shape(unique[k])); });
-      for (size_t i = 0; i < train.size(); ++i)
-        if (source[i] != i) groups[i] = groups[source[i]];
-    }
-  }
+  const std::vector<std::vector<Mat3>> groups = symmetry_groups(train, s.symmetries, &unique);
 
   net.init(s.seed);
   if (!s.init.empty()) {
@@ -416,13 +424,11 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
   }
   require(!items.empty(), data.root() + ": no views to evaluate");
   std::vector<PointsF> shape_points(data.size());
-  std::vector<std::vector<Mat3>> shape_symmetries(data.size());
-  // Per shape, in parallel: its points and (found once per shape, minutes for thousands of meshes) its symmetries.
   tbb::parallel_for(size_t(0), data.size(), [&](size_t s) {
     Eigen::VectorXf d;
     draw_samples(data.samples(s), es.points, Rng::mix(es.seed + 1000003ULL * s), shape_points[s], d);
-    if (es.symmetries) shape_symmetries[s] = es.symmetries(data.shape(s));
   });
+  const std::vector<std::vector<Mat3>> shape_symmetries = symmetry_groups(data, es.symmetries);
   // Fixed chunks of es.batch items, chunk c on replica c mod R (replicas share net's values): every chunk is computed
   // as in a serial run, so the scores do not depend on the thread count.
   const int S = net.settings().image_size;

@@ -130,8 +130,8 @@ struct PoseEvalSettings {
   int batch = 16;
   uint64_t seed = 1;
   /// The object-frame rotations that map a shape onto itself (e.g. sdf/symmetry.h from its gt mesh), called once
-  /// per shape, for several shapes at once from different threads; when set, d3d_sym / d2d_sym score each estimate
-  /// against the closest symmetric twin of the truth.
+  /// per shape (a list naming a shape twice shares its group), for several shapes at once from different threads;
+  /// when set, d3d_sym / d2d_sym score each estimate against the closest symmetric twin of the truth.
   std::function<std::vector<Mat3>(const ShapeEntry&)> symmetries;
   /// Magnify every image by this factor about its centre and divide the true distance by it (zoom_images with
   /// probability 1; lowered per image when the object would leave the frame): how well the network reads the
