@@ -7,6 +7,7 @@
 #include "nets/plot.h"
 
 #include <chrono>
+#include <exception>
 #include <cmath>
 #include <filesystem>
 #include <atomic>
@@ -68,7 +69,18 @@ std::vector<std::vector<Mat3>> symmetry_groups(const Dataset& data, const Symmet
     if (fresh) unique.push_back(i);
   }
   if (source) {
-    tbb::parallel_for(size_t(0), unique.size(), [&](size_t k) { groups[unique[k]] = source(data.shape(unique[k])); });
+    // A failing shape throws after the loop, and always the first failing shape in list order (whichever thread
+    // failed first would make the message depend on the scheduling).
+    std::vector<std::exception_ptr> failed(unique.size());
+    tbb::parallel_for(size_t(0), unique.size(), [&](size_t k) {
+      try {
+        groups[unique[k]] = source(data.shape(unique[k]));
+      } catch (...) {
+        failed[k] = std::current_exception();
+      }
+    });
+    for (const std::exception_ptr& e : failed)
+      if (e) std::rethrow_exception(e);
     for (size_t i = 0; i < data.size(); ++i)
       if (first_of[i] != i) groups[i] = groups[first_of[i]];
   }
