@@ -3,9 +3,8 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
+#include "core/parallel.h"
 #include "core/random.h"
-
-#include <tbb/parallel_for.h>
 
 #include <cmath>
 #include <cstdio>
@@ -52,7 +51,8 @@ std::vector<Camera> render_view_set(const Mesh& normalized_mesh, const std::stri
   const std::vector<Camera> cams = view_set_cameras(settings, seed);
   const MeshRenderer renderer(normalized_mesh, settings.render);
   const bool occlude = settings.occlusion.mode != OcclusionMode::kNone;
-  tbb::parallel_for(0, settings.views, [&](int k) {
+  // A write error names the first failing view, whatever the scheduling.
+  parallel_for_ordered_errors(0, settings.views, [&](int k) {
     const std::string base = views_dir + "/" + view_name(k, settings.views);
     RenderResult r = renderer.render(cams[static_cast<size_t>(k)]);
     Json cam_json = camera_to_json(cams[static_cast<size_t>(k)]);

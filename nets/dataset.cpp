@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/json.h"
+#include "core/parallel.h"
 #include "core/random.h"
 
 #include <tbb/parallel_for.h>
@@ -269,7 +270,8 @@ SdfBatch BatchSampler::batch(long step, int begin, int end) const {
     out.shape_index[b] = s;
     out.view_index[b] = v;
   }
-  tbb::parallel_for(0, B, [&](int b) {
+  // A bad file's error is the first failing item's, whatever the scheduling.
+  parallel_for_ordered_errors(0, B, [&](int b) {
     const int s = out.shape_index[b], v = out.view_index[b];
     PointsF pts;
     Eigen::VectorXf d;

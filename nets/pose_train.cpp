@@ -1,13 +1,13 @@
 #include "nets/pose_train.h"
 
 #include "core/json.h"
+#include "core/parallel.h"
 #include "nets/checkpoint.h"
 #include "nets/comm.h"
 #include "nets/denormals.h"
 #include "nets/plot.h"
 
 #include <chrono>
-#include <exception>
 #include <cmath>
 #include <filesystem>
 #include <atomic>
@@ -69,18 +69,9 @@ std::vector<std::vector<Mat3>> symmetry_groups(const Dataset& data, const Symmet
     if (fresh) unique.push_back(i);
   }
   if (source) {
-    // A failing shape throws after the loop, and always the first failing shape in list order (whichever thread
-    // failed first would make the message depend on the scheduling).
-    std::vector<std::exception_ptr> failed(unique.size());
-    tbb::parallel_for(size_t(0), unique.size(), [&](size_t k) {
-      try {
-        groups[unique[k]] = source(data.shape(unique[k]));
-      } catch (...) {
-        failed[k] = std::current_exception();
-      }
-    });
-    for (const std::exception_ptr& e : failed)
-      if (e) std::rethrow_exception(e);
+    // A failing shape's error is the first failing shape's in list order, whatever the scheduling.
+    parallel_for_ordered_errors(size_t(0), unique.size(),
+                                [&](size_t k) { groups[unique[k]] = source(data.shape(unique[k])); });
     for (size_t i = 0; i < data.size(); ++i)
       if (first_of[i] != i) groups[i] = groups[first_of[i]];
   }
@@ -436,7 +427,7 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
   }
   require(!items.empty(), data.root() + ": no views to evaluate");
   std::vector<PointsF> shape_points(data.size());
-  tbb::parallel_for(size_t(0), data.size(), [&](size_t s) {
+  parallel_for_ordered_errors(size_t(0), data.size(), [&](size_t s) {
     Eigen::VectorXf d;
     draw_samples(data.samples(s), es.points, Rng::mix(es.seed + 1000003ULL * s), shape_points[s], d);
   });
@@ -465,49 +456,54 @@ PoseScores evaluate_pose(PoseNet& net, const Dataset& data, const PoseEvalSettin
   std::vector<ItemScore> scored(items.size());
   std::atomic<long> done{0};
   std::mutex progress_mutex;
+  // Chunk c on replica `replica`. A failing chunk's error (a missing view, a bad camera) is the first failing item's in
+  // list order, whatever the scheduling: the items of a chunk are read in order.
+  const auto score_chunk = [&](size_t c, size_t replica) {
+    const size_t b0 = c * static_cast<size_t>(es.batch);
+    const size_t m = std::min(items.size() - b0, static_cast<size_t>(es.batch));
+    MatrixXfR images(static_cast<Eigen::Index>(m), 3 * S * S);
+    std::vector<PointsF> pts;
+    std::vector<Camera> cams;
+    for (size_t k = 0; k < m; ++k) {
+      const auto [s, v] = items[b0 + k];
+      images.row(static_cast<Eigen::Index>(k)) = network_image(data.image(s, v), S).transpose();
+      pts.push_back(shape_points[s]);
+      cams.push_back(data.camera(s, v));
+    }
+    if (es.zoom != 1) {
+      ZoomAugmentSettings z;
+      z.prob = 1;
+      z.min = z.max = es.zoom;
+      zoom_images(images, cams, z, es.seed, b0);
+    }
+    if (es.reframe) {
+      ReframeAugmentSettings r;
+      r.prob = 1;
+      r.camera = ZoomAugmentSettings::CameraFollow::kDistance;
+      reframe_images(images, cams, r, es.seed, b0);
+    }
+    std::vector<PoseErrors> each;
+    std::vector<double> losses;
+    std::vector<Camera> predicted;
+    score_batch(*nets[replica], images, pts, cams, &each, &losses, &predicted);
+    for (size_t k = 0; k < m; ++k) {
+      const std::vector<Mat3>& g = shape_symmetries[static_cast<size_t>(items[b0 + k].first)];
+      scored[b0 + k] = {losses[k], each[k],
+                        g.empty() ? each[k] : pose_errors_modulo(to_double(pts[k]), predicted[k], cams[k], g),
+                        predicted[k], cams[k]};
+    }
+    const long now = done += static_cast<long>(m);
+    if (progress) {
+      const std::lock_guard<std::mutex> lock(progress_mutex);
+      progress(now, static_cast<long>(items.size()));
+    }
+  };
+  FirstFailure failure;
   tbb::parallel_for(size_t(0), R, [&](size_t r) {
     flush_denormals_on_this_thread();
-    for (size_t c = r; c < chunks; c += R) {
-      const size_t b0 = c * static_cast<size_t>(es.batch);
-      const size_t m = std::min(items.size() - b0, static_cast<size_t>(es.batch));
-      MatrixXfR images(static_cast<Eigen::Index>(m), 3 * S * S);
-      std::vector<PointsF> pts;
-      std::vector<Camera> cams;
-      for (size_t k = 0; k < m; ++k) {
-        const auto [s, v] = items[b0 + k];
-        images.row(static_cast<Eigen::Index>(k)) = network_image(data.image(s, v), S).transpose();
-        pts.push_back(shape_points[s]);
-        cams.push_back(data.camera(s, v));
-      }
-      if (es.zoom != 1) {
-        ZoomAugmentSettings z;
-        z.prob = 1;
-        z.min = z.max = es.zoom;
-        zoom_images(images, cams, z, es.seed, b0);
-      }
-      if (es.reframe) {
-        ReframeAugmentSettings r;
-        r.prob = 1;
-        r.camera = ZoomAugmentSettings::CameraFollow::kDistance;
-        reframe_images(images, cams, r, es.seed, b0);
-      }
-      std::vector<PoseErrors> each;
-      std::vector<double> losses;
-      std::vector<Camera> predicted;
-      score_batch(*nets[r], images, pts, cams, &each, &losses, &predicted);
-      for (size_t k = 0; k < m; ++k) {
-        const std::vector<Mat3>& g = shape_symmetries[static_cast<size_t>(items[b0 + k].first)];
-        scored[b0 + k] = {losses[k], each[k],
-                          g.empty() ? each[k] : pose_errors_modulo(to_double(pts[k]), predicted[k], cams[k], g),
-                          predicted[k], cams[k]};
-      }
-      const long now = done += static_cast<long>(m);
-      if (progress) {
-        const std::lock_guard<std::mutex> lock(progress_mutex);
-        progress(now, static_cast<long>(items.size()));
-      }
-    }
+    for (size_t c = r; c < chunks; c += R) failure.run(c, [&] { score_chunk(c, r); });
   });
+  failure.rethrow();
   PoseScores total;
   if (per_item) per_item->clear();
   for (size_t i = 0; i < items.size(); ++i) {

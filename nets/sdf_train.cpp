@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/json.h"
+#include "core/parallel.h"
 #include "core/random.h"
 #include "nets/checkpoint.h"
 #include "nets/comm.h"
@@ -147,7 +148,7 @@ SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, i
     long right = 0, total = 0, inter = 0, uni = 0;
   };
   std::vector<PerShape> per(static_cast<size_t>(std::max(0, n_shapes)));
-  tbb::parallel_for(0, n_shapes, [&](int s) {
+  parallel_for_ordered_errors(0, n_shapes, [&](int s) {  // a bad shape's error: the first one in list order
     flush_denormals_on_this_thread();
     PerShape& r = per[static_cast<size_t>(s)];
     PointsF pts;

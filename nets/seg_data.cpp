@@ -2,9 +2,8 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/parallel.h"
 #include "core/random.h"
-
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
@@ -108,7 +107,7 @@ BackgroundSet::BackgroundSet(const std::string& source, int max_side) {
   require(max_side >= 8, "backgrounds: the largest side must be >= 8");
   paths_ = list_background_files(source);
   images_.resize(paths_.size());
-  tbb::parallel_for(size_t(0), paths_.size(), [&](size_t i) {
+  parallel_for_ordered_errors(size_t(0), paths_.size(), [&](size_t i) {  // an unreadable file: the first one
     Image rgb = to_rgb(read_image(paths_[i]), 1.0f);
     for (float& v : rgb.data) v = std::clamp(v, 0.0f, 1.0f);
     const int longer = std::max(rgb.width, rgb.height);

@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/parallel.h"
 #include "core/random.h"
 #include "nets/checkpoint.h"
 #include "nets/denormals.h"
@@ -157,7 +158,7 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
     Rng rng = Rng::derived(s.seed, 0x5e9a1);
     std::vector<std::pair<int, int>> chosen;
     for (int k = 0; k < s.val_items; ++k) chosen.push_back(val_pairs[rng.below(val_pairs.size())]);
-    tbb::parallel_for(0, s.val_items, [&](int k) {
+    parallel_for_ordered_errors(0, s.val_items, [&](int k) {  // a bad view's error: the first one in order
       const auto [shape, view] = chosen[static_cast<size_t>(k)];
       const SegSample smp = make_composite(val.image(static_cast<size_t>(shape), view), &backgrounds, s.composite,
                                            s.seed, kValStream + static_cast<uint64_t>(k));
@@ -243,7 +244,7 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
       }
       items.push_back(train_pairs[static_cast<size_t>(perm[static_cast<size_t>(g % n_pairs)])]);
     }
-    tbb::parallel_for(0, s.batch, [&](int b) {
+    parallel_for_ordered_errors(0, s.batch, [&](int b) {  // a bad view's error: the first one in batch order
       flush_denormals_on_this_thread();
       const auto [shape, view] = items[static_cast<size_t>(b)];
       const uint64_t g = static_cast<uint64_t>(step) * static_cast<uint64_t>(s.batch) + static_cast<uint64_t>(b);

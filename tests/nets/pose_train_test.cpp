@@ -15,6 +15,7 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <unistd.h>
 
@@ -371,6 +372,33 @@ TEST_CASE("evaluate_pose modulo symmetries: the smaller of the true camera's and
     CHECK(one.d2d == two.d2d);
     CHECK(one.d3d == two.d3d);
     CHECK(one.loss == two.loss);
+  }
+
+  // Two unreadable cameras (car/a's second view, lamp/b's first): the error names the first in (shape, view) order
+  // on any number of threads, whichever chunk fails first.
+  {
+    const fs::path broken = test::scratch_dir("pose_eval_broken");
+    fs::copy(root, broken, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+    for (const char* view : {"car/a/views/01.json", "lamp/b/views/00.json"}) std::ofstream(broken / view) << "{ broken";
+    DatasetSettings bs;
+    bs.root = broken.string();
+    bs.split = "train";
+    const Dataset bad(bs);
+    PoseEvalSettings each = es;
+    each.views = -1;
+    each.batch = 1;
+    for (const int threads : {1, 2, 4})
+      for (int run = 0; run < 3; ++run) {
+        std::string msg;
+        tbb::task_arena(threads).execute([&] {
+          try {
+            evaluate_pose(*net, bad, each);
+          } catch (const std::exception& e) {
+            msg = e.what();
+          }
+        });
+        CHECK_MESSAGE(msg.find((fs::path("car") / "a" / "views" / "01.json").string()) != std::string::npos, msg);
+      }
   }
 
   // The half turn for the car only; the source is asked once per shape.
