@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "core/json.h"
 #include "core/mesh_io.h"
+#include "core/parallel.h"
 #include "core/random.h"
 #include "synth/categories.h"
 
@@ -13,7 +14,6 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
-#include <exception>
 #include <filesystem>
 #include <mutex>
 #include <numeric>
@@ -123,7 +123,7 @@ SynthSummary write_benchmark(const std::string& dir, const SynthSettings& settin
   const std::vector<fs::path> stale = stale_files(root, keep);
 
   std::vector<long> faces(plan.size(), 0);
-  std::vector<std::exception_ptr> errors(plan.size());
+  FirstFailure errors;  // a failing shape's error: the first one in plan order, whatever the scheduling
   std::atomic<long> done{0};
   std::atomic<bool> cancelled{false};
   std::mutex progress_mutex;
@@ -132,14 +132,12 @@ SynthSummary write_benchmark(const std::string& dir, const SynthSettings& settin
   arena.execute([&] {
     tbb::parallel_for(size_t(0), plan.size(), [&](size_t i) {
       if (cancelled.load()) return;
-      try {
+      errors.run(i, [&] {
         const PlannedShape& e = plan[i];
         const SynthShape shape = generate_shape(e.category, e.seed);
         write_mesh((root / categories()[e.category].name / (e.id + ".ply")).string(), shape.mesh);
         faces[i] = static_cast<long>(shape.mesh.F.rows());
-      } catch (...) {
-        errors[i] = std::current_exception();
-      }
+      });
       const long d = ++done;
       if (progress) {
         std::lock_guard<std::mutex> lock(progress_mutex);
@@ -147,8 +145,7 @@ SynthSummary write_benchmark(const std::string& dir, const SynthSettings& settin
       }
     });
   });
-  for (const auto& err : errors)
-    if (err) std::rethrow_exception(err);
+  errors.rethrow();
   if (cancelled) throw Error("synth: cancelled");
 
   // Lists and categories.json (written after the meshes: a folder with categories.json is complete).
