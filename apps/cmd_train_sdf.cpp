@@ -23,6 +23,7 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
     std::string zoom_range = "0.7,1.6";
     std::string occlusion = "none";
     bool mask_channel = false;
+    bool object_channel = false;
     int critic_size = 56;
     bool json = false;
   };
@@ -107,6 +108,37 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
                "the network reads a fourth input channel, the missing-data mask (1 = pixel unknown, e.g. occluded), "
                "so that missing pixels are not taken for background; --init may name an RGB model of the same "
                "architecture (its first convolution gets zero mask weights)");
+  app.add_flag("--object-channel", o->object_channel,
+               "the network reads unmasked images (the object among a photograph's pixels) with the object's mask as "
+               "a fourth input channel (1 = object), as recon gives it a photo's crop and the mask it found "
+               "(docs/train.md); every training image gets its object's mask; excludes --mask-channel, --occlusion "
+               "and --aug-mask-error; --init may name a model with the missing-data channel (same weights)");
+  app.add_option("--aug-context", s.context.prob,
+                 "with --object-channel: probability that a training image's white background becomes a crop of a "
+                 "photograph of --context-backgrounds or a procedural background (as the segmenter's composites)")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
+  app.add_option("--context-mask-error", s.context.mask_error,
+                 "with --object-channel: probability that a training image's mask channel gets a segmentation error "
+                 "(thin parts dropped, the outline moved, a blob added; the pixels stay the true ones)")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
+  app.add_option("--context-backgrounds", s.context_backgrounds,
+                 "with --aug-context: photographs of the drawn backgrounds (a folder, or a .lst/.txt list of image paths; "
+                 "none = procedural backgrounds only)");
+  app.add_option("--context-band", s.net.context_band,
+                 "with --object-channel: the network reads the photograph only within this many pixels of the mask's "
+                 "object, white beyond (recon shows it the photo so; 0 = the whole image)")
+      ->capture_default_str()
+      ->check(in_range(0, 137));
+  app.add_option("--context-procedural", s.context.background.procedural,
+                 "share of procedural backgrounds among the drawn ones when there are photographs")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
+  app.add_option("--context-clutter", s.context.background.clutter,
+                 "probability of dead-leaves clutter over a drawn background (busy photographs)")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
   app.add_flag("--mirror-features", s.net.mirror_features,
                "the local stream also reads the image features at the projection of each point's mirror image "
                "across the object's x = 0 plane (its symmetry plane in ShapeNet-style data), with weights of its own, "
@@ -164,7 +196,14 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
     s.net.decoder = parse_widths(o->decoder, "--decoder");
     s.time_limit_seconds = o->minutes * 60.0;
     s.occlusion.kind = parse_occlusion_kind(o->occlusion);
-    s.net.input_channels = o->mask_channel ? 4 : 3;
+    if (o->mask_channel && o->object_channel)
+      throw InvalidInput("train sdf: --mask-channel and --object-channel are two meanings of the fourth channel; "
+                         "choose one");
+    s.net.input_channels = o->mask_channel || o->object_channel ? 4 : 3;
+    if (o->object_channel) s.net.mask_channel = SdfNetConfig::MaskChannel::kObject;
+    if (s.net.context_band > 0 && !o->object_channel)
+      throw InvalidInput("train sdf: --context-band applies with --object-channel");
+    s.context.band = s.net.context_band;
     s.adversarial.critic.size = s.adversarial.render.size = o->critic_size;
     std::tie(s.zoom.min, s.zoom.max) = parse_positive_range(o->zoom_range, "train sdf: --zoom-range");
     // In an MPI job (mpirun/srun, nets/comm.h) every rank trains; rank 0 alone reports and writes files.

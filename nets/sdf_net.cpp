@@ -32,7 +32,7 @@ SdfVariant sdf_variant_from_string(const std::string& s) {
 }
 
 Json SdfNetConfig::to_json() const {
-  return {{"variant", to_string(variant)},
+  Json j = {{"variant", to_string(variant)},
           {"image_size", image_size},
           {"input_channels", input_channels},
           {"encoder_channels", encoder_channels},
@@ -45,6 +45,12 @@ Json SdfNetConfig::to_json() const {
           {"mirror_features", mirror_features},
           {"sdf_scale", sdf_scale},
           {"sdf_offset", sdf_offset}};
+  // Written only for the object mask, so that the models written before the field existed keep their bytes.
+  if (mask_channel == MaskChannel::kObject) {
+    j["mask_channel"] = "object";
+    j["context_band"] = context_band;
+  }
+  return j;
 }
 
 SdfNetConfig SdfNetConfig::from_json(const Json& j) {
@@ -63,6 +69,15 @@ SdfNetConfig SdfNetConfig::from_json(const Json& j) {
     c.mirror_features = j.value("mirror_features", false);  // absent in models written before the option existed
     c.sdf_scale = j.at("sdf_scale").get<float>();
     c.sdf_offset = j.at("sdf_offset").get<float>();
+    const std::string mask = j.value("mask_channel", std::string("missing"));  // absent: written before it existed
+    if (mask == "object") {
+      c.mask_channel = MaskChannel::kObject;
+      c.context_band = j.value("context_band", 0);
+    } else if (mask != "missing") {
+      throw IoError("SDF network configuration: unknown mask_channel '" + mask + "' (missing, object)");
+    }
+  } catch (const IoError&) {
+    throw;
   } catch (const InvalidInput& e) {
     throw IoError(std::string("SDF network configuration: ") + e.what());
   } catch (const std::exception& e) {
@@ -165,6 +180,9 @@ SdfNetT<T>::SdfNetT(const SdfNetConfig& config) : config_(config), impl_(std::ma
   require(c.sdf_scale > 0, "SDF network: sdf_scale must be positive");
   require(c.first_stride == 1 || c.first_stride == 2, "SDF network: first_stride must be 1 or 2");
   require(c.input_channels == 3 || c.input_channels == 4, "SDF network: input_channels must be 3 (RGB) or 4 (RGB + mask)");
+  require(c.mask_channel == SdfNetConfig::MaskChannel::kMissing || c.input_channels == 4,
+          "SDF network: an object-mask channel needs 4 input channels");
+  require(c.context_band >= 0 && c.context_band <= c.image_size, "SDF network: context_band must be in [0, image_size]");
   Impl& m = *impl_;
   // Encoder.
   int in_c = c.input_channels, size = c.image_size;

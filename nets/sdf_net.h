@@ -52,6 +52,15 @@ struct SdfNetConfig {
   /// C: 3 (RGB) or 4 (RGB + a missing-data mask: 1 where the pixel is unknown, e.g. occluded; the RGB of such a
   /// pixel is the white background). Models without the field are RGB.
   int input_channels = 3;
+  /// What the fourth channel of a 4-channel network is. kMissing: the missing-data mask above (the object
+  /// composited on white). kObject: the object's mask (1 = object) over an unmasked image, the object among the
+  /// photograph's pixels (nets/context.h; `train sdf --object-channel`). Models without the field are kMissing.
+  enum class MaskChannel { kMissing, kObject };
+  MaskChannel mask_channel = MaskChannel::kMissing;
+  /// kObject only: the image's pixels farther than this (pixels of the image_size input) from the mask's object
+  /// (coverage over 0.5) are the white background, so that the network reads the photograph only in a band around
+  /// the mask, where a mask's errors mostly lie; 0 = the whole image.
+  int context_band = 0;
   std::vector<int> encoder_channels{16, 32, 64, 96, 128};  ///< one stride-2 3x3 conv stage each (+ReLU)
   int extra_convs = 1;          ///< stride-1 3x3 convs added to every stage after the first
   /// Stride of the first stage: 2 (every stage halves the map), or 1: the first map has the image's resolution,
@@ -68,6 +77,8 @@ struct SdfNetConfig {
 
   [[nodiscard]] Json to_json() const;
   static SdfNetConfig from_json(const Json& j);  ///< IoError on missing/invalid fields
+  /// A 4-channel network that reads unmasked images with the object's mask (MaskChannel::kObject).
+  [[nodiscard]] bool reads_context() const { return input_channels == 4 && mask_channel == MaskChannel::kObject; }
   [[nodiscard]] bool uses_global() const { return true; }
   [[nodiscard]] bool uses_local() const { return variant != SdfVariant::kGlobalOnly; }
   [[nodiscard]] int num_streams() const {

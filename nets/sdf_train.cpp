@@ -154,7 +154,10 @@ SdfValidation validate_sdf(const SdfNet& net, const Dataset& data, int shapes, i
     PointsF pts;
     Eigen::VectorXf sdf;
     draw_samples(data.samples(s), points, Rng::mix(seed + 77 * static_cast<uint64_t>(s)), pts, sdf);
-    const Eigen::VectorXf img = network_input(data.input(s, 0), nullptr, c.input_channels);
+    // An object-channel network reads the object's exact mask on the white view.
+    const Eigen::VectorXf rgb = data.input(s, 0);
+    const Eigen::VectorXf object = c.reads_context() ? ink_mask(rgb) : Eigen::VectorXf();
+    const Eigen::VectorXf img = network_input(rgb, c.reads_context() ? &object : nullptr, c.input_channels);
     const auto code = net.encode(img.data(), data.camera(s, 0));
     Eigen::VectorXf pred;
     net.predict(code, pts, pred);
@@ -227,6 +230,21 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
           "train sdf: the zoom augmentation must move the intrinsics (the network projects with the camera)");
   st.reframe.validate();
   st.mask_error.validate();
+  st.context.validate();
+  require(st.context.band == st.net.context_band,
+          "train sdf: the context augmentation's band must be the network's (SdfNetConfig::context_band)");
+  if (st.net.reads_context()) {
+    require(!st.occlusion.enabled(), "train sdf: an object-channel network takes no --occlusion (its fourth channel "
+                                     "is the object's mask, not the missing pixels')");
+    require(!st.mask_error.enabled(), "train sdf: with an object-channel network the segmentation error goes to the "
+                                      "mask channel (--context-mask-error), not --aug-mask-error");
+  } else {
+    require(st.context.prob == 0 && st.context.mask_error == 0 && st.context_backgrounds.empty(),
+            "train sdf: --aug-context, --context-mask-error and --context-backgrounds need an object-channel network "
+            "(--object-channel)");
+  }
+  std::unique_ptr<BackgroundSet> context_backgrounds;
+  if (!st.context_backgrounds.empty()) context_backgrounds = std::make_unique<BackgroundSet>(st.context_backgrounds);
   require(st.reframe.camera == ZoomAugmentSettings::CameraFollow::kFocal,
           "train sdf: the reframing must move the intrinsics (the network projects with the camera)");
   const SdfAdversarialSettings& adv = st.adversarial;
@@ -246,6 +264,15 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
       net.adopt_parameters(*start);  // an RGB model for an RGB + mask network, or one without mirror features
     } else if (SdfNet::can_adopt_as_binary(start->config(), st.net)) {
       net.adopt_as_binary(*start, kBinaryFromSdfScale);  // a two-stream model turned into an occupancy classifier
+    } else if (start->config().input_channels == 4 && st.net.reads_context() && [&] {
+                 SdfNetConfig c = start->config();
+                 c.mask_channel = st.net.mask_channel;
+                 c.context_band = st.net.context_band;
+                 return c.to_json() == st.net.to_json();
+               }()) {
+      // A missing-data-mask model (or another band's) for an object-channel network: the same weights, the fourth
+      // channel re-learnt.
+      std::copy(start->params().values.begin(), start->params().values.end(), net.params().values.begin());
     } else if (start->config().to_json() != st.net.to_json()) {
       throw InvalidInput(st.init + ": --init model has another configuration than the network being trained (" +
                          start->config().to_json().dump() + " vs " + st.net.to_json().dump() + ")");
@@ -291,6 +318,10 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
                            {"occlusion", st.occlusion.to_json()},
                            {"adversarial", adv.to_json()}};
   if (st.mask_error.enabled()) train_json["mask_error"] = st.mask_error.to_json();
+  if (st.net.reads_context()) {
+    train_json["context"] = st.context.to_json();
+    train_json["context_backgrounds"] = st.context_backgrounds;
+  }
   if (st.resume && fs::exists(st.out)) {
     Checkpoint ck = load_checkpoint(st.out);
     // A configuration written before a field existed reads as that field's default (SdfNetConfig::from_json).
@@ -380,7 +411,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     SdfBatch batch;
     MatrixXfR silhouettes;  // --adversarial: the object's pixels (is_ink) before occlusion, B x (S * S)
   };
-  auto load = [&sampler, &st, i0 = i0, i1 = i1](long at) {
+  auto load = [&sampler, &st, &context_backgrounds, i0 = i0, i1 = i1](long at) {
     Loaded l;
     SdfBatch& batch = l.batch;
     batch = sampler.batch(at, i0, i1);
@@ -396,6 +427,8 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
           l.silhouettes(b, i) = is_ink(batch.images(b, i), batch.images(b, n + i), batch.images(b, 2 * n + i)) ? 1.f : 0.f;
     }
     occlude_images(batch.images, batch.masks, st.occlusion, st.seed, stream);
+    if (st.net.reads_context())
+      context_images(batch.images, batch.masks, st.context, context_backgrounds.get(), st.seed, stream);
     return l;
   };
   std::future<Loaded> next;

@@ -5,6 +5,7 @@
 
 #include "core/json.h"
 #include "camera/field_silhouette.h"
+#include "nets/context.h"
 #include "nets/dataset.h"
 #include "nets/patch_critic.h"
 #include "nets/sdf_net.h"
@@ -83,6 +84,13 @@ struct SdfTrainSettings {
   /// Occlusion augmentation (nets/dataset.h, off by default), applied after the zoom and the reframing. With an RGB + mask network
   /// (net.input_channels = 4) the network also reads the removed pixels' mask; an RGB network sees white there.
   OcclusionAugmentSettings occlusion;
+  /// Unmasked inputs (nets/context.h), for a network whose fourth channel is the object's mask
+  /// (net.mask_channel = kObject; needed): applied last, every image gets its object's mask as that channel, some a
+  /// drawn background and a mask error. Excludes the occlusion and the image-side mask-error augmentations.
+  ContextAugmentSettings context;
+  /// The photographs of the drawn backgrounds (a folder or a list file, nets/seg_data.h BackgroundSet); empty =
+  /// procedural backgrounds only.
+  std::string context_backgrounds;
   SdfAdversarialSettings adversarial;  ///< off by default; single-process training only
   double time_limit_seconds = 0;    ///< stop (and save) once this much time has passed (0 = no limit)
 };

@@ -308,6 +308,29 @@ void add_clutter(Image& bg, const BackgroundSet* photos, int max_shapes, double 
 
 }  // namespace
 
+Image draw_background(int width, int height, const BackgroundSet* backgrounds, const SegCompositeSettings& s,
+                      const std::array<float, 3>& near, Rng& rng, std::string* name) {
+  require(width > 0 && height > 0, "segmenter data: a background needs a positive size");
+  Image bg(width, height, 3);
+  std::string what;
+  const bool photo = backgrounds && !backgrounds->empty() && !(rng.uniform() < s.procedural);
+  if (photo) {
+    const size_t i = static_cast<size_t>(rng.below(backgrounds->size()));
+    fill_photo(bg, backgrounds->image(i), s.background_jitter, rng);
+    what = "photo:" + std::to_string(i);
+  } else {
+    const ProceduralBackground kind = s.kinds[static_cast<size_t>(rng.below(s.kinds.size()))];
+    fill_procedural(bg, kind, near, s.procedural_noise, rng);
+    what = procedural_name(kind);
+  }
+  if (s.clutter > 0 && rng.uniform() < s.clutter) {
+    add_clutter(bg, backgrounds, s.clutter_shapes, s.background_jitter, rng);
+    what += "+clutter";
+  }
+  if (name) *name = std::move(what);
+  return bg;
+}
+
 SegSample make_composite(const Image& render, const BackgroundSet* backgrounds, const SegCompositeSettings& s,
                          uint64_t seed, uint64_t stream) {
   require(!render.empty(), "segmenter data: empty render");
@@ -360,24 +383,9 @@ SegSample make_composite(const Image& render, const BackgroundSet* backgrounds, 
   Rgb near = {1, 1, 1};
   if (mass > 0)
     for (int c = 0; c < 3; ++c) near[static_cast<size_t>(c)] = clamp01(mean[c] / mass * gain[static_cast<size_t>(c)]);
-  // 4. The background.
-  Image bg(W, H, 3);
+  // 4-5. The background and its clutter.
   SegSample out;
-  const bool photo = backgrounds && !backgrounds->empty() && !(rng.uniform() < s.procedural);
-  if (photo) {
-    const size_t i = static_cast<size_t>(rng.below(backgrounds->size()));
-    fill_photo(bg, backgrounds->image(i), s.background_jitter, rng);
-    out.background = "photo:" + std::to_string(i);
-  } else {
-    const ProceduralBackground kind = s.kinds[static_cast<size_t>(rng.below(s.kinds.size()))];
-    fill_procedural(bg, kind, near, s.procedural_noise, rng);
-    out.background = procedural_name(kind);
-  }
-  // 5. Clutter.
-  if (s.clutter > 0 && rng.uniform() < s.clutter) {
-    add_clutter(bg, backgrounds, s.clutter_shapes, s.background_jitter, rng);
-    out.background += "+clutter";
-  }
+  const Image bg = draw_background(W, H, backgrounds, s, near, rng, &out.background);
 
   // The object resampled onto the canvas: canvas point q -> render point m + (q - d) / k.
   Image canvas(W, H, 3), label(W, H, 1);

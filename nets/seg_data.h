@@ -26,8 +26,10 @@
 
 #include "camera/image.h"
 #include "core/json.h"
+#include "core/random.h"
 #include "nets/seg_net.h"
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -93,6 +95,13 @@ struct SegSample {
   /// clutter.
   std::string background;
 };
+
+/// A background as make_composite's steps 4 and 5 draw it (see the header comment), width x height RGB, drawn from
+/// `rng` in that order: a random crop of a photo of `backgrounds` (may be null or empty) or a procedural background
+/// whose colours may lie near `near` (the object's mean colour), then clutter when settings.clutter > 0. `name`
+/// (optional) receives what it was, as SegSample::background names it.
+Image draw_background(int width, int height, const BackgroundSet* backgrounds, const SegCompositeSettings& settings,
+                      const std::array<float, 3>& near, Rng& rng, std::string* name = nullptr);
 
 /// Composite `render` (RGBA; RGB or grey is taken as opaque) onto a background, drawing every choice from
 /// Rng::derived(seed, stream) (see the header comment). `backgrounds` may be null or empty (procedural only).

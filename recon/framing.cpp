@@ -819,6 +819,25 @@ Image frame_channel(const Image& channel, const FramedInput& framed) {
   return out;
 }
 
+Eigen::VectorXf context_input(const Image& image, const FramedInput& framed) {
+  require(framed.mask.width == image.width && framed.mask.height == image.height,
+          "context_input: the image is not the one framed");
+  require(framed.side > 0 && framed.image.width == kNetImageSize && framed.image.height == kNetImageSize &&
+              framed.image.channels == 4,
+          "context_input: the framing has no crop");
+  const Image rgb = framing_rgb(image, false);
+  const Image crop =
+      resample_crop(rgb, Image(rgb.width, rgb.height, 1, 1.f), framed.x0, framed.y0, framed.side, kNetImageSize);
+  const Eigen::VectorXf pixels = network_image(crop);  // the crop's part outside the input composited on white
+  const Eigen::Index n = static_cast<Eigen::Index>(kNetImageSize) * kNetImageSize;
+  Eigen::VectorXf out(4 * n);
+  out.head(3 * n) = pixels;
+  for (int y = 0; y < kNetImageSize; ++y)
+    for (int x = 0; x < kNetImageSize; ++x)
+      out[3 * n + static_cast<Eigen::Index>(y) * kNetImageSize + x] = std::clamp(framed.image.at(x, y, 3), 0.f, 1.f);
+  return out;
+}
+
 Camera camera_in_input(const Camera& network_camera, const FramedInput& framed, int input_width, int input_height) {
   require(framed.side > 0, "camera_in_input: the framing has no crop");
   require(input_width > 0 && input_height > 0, "camera_in_input: input size must be positive");

@@ -201,6 +201,12 @@ void recrop(FramedInput& framed, const Image& image, const SquareCrop& crop);
 /// the network image was (the crop's part outside the input is 0). InvalidInput when the sizes differ.
 Image frame_channel(const Image& channel, const FramedInput& framed);
 
+/// The unmasked network input of `framed` (frame_input's answer for `image`), as an SDF network whose fourth channel
+/// is the object's mask reads it (SdfNetConfig::MaskChannel::kObject, nets/context.h): 4 x 137 x 137 channels-first,
+/// the input's pixels through the crop (RGB, an alpha composited on white, the crop's part outside the input white)
+/// and the object's coverage (framed.image's alpha). InvalidInput when `image` is not the one framed.
+Eigen::VectorXf context_input(const Image& image, const FramedInput& framed);
+
 /// A camera of the 137 px network image of `framed` as a camera of the input image (intrinsics mapped through the
 /// crop; same R, t), and its inverse.
 Camera camera_in_input(const Camera& network_camera, const FramedInput& framed, int input_width, int input_height);

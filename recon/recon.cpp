@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "extract/adaptive.h"
 #include "extract/cleanup.h"
+#include "nets/context.h"
 #include "nets/dataset.h"
 #include "nets/pose_net.h"
 #include "nets/pose_train.h"
@@ -78,13 +79,17 @@ Reconstructor::Reconstructor(std::unique_ptr<SdfNet> sdf, std::unique_ptr<PoseNe
   if (photo_sdf_) {
     // One extraction rule for both: the same field (variant, scale) from the same input channels.
     const SdfNetConfig &a = sdf_->config(), &b = photo_sdf_->config();
+    // An object-channel photo model reads its own input (the unmasked crop), whatever the main model's channels.
     if (b.image_size != a.image_size || b.variant != a.variant || b.sdf_scale != a.sdf_scale || b.sdf_offset != a.sdf_offset ||
-        b.input_channels != a.input_channels)
+        (b.input_channels != a.input_channels && !b.reads_context()))
       throw InvalidInput("the photo SDF model is a " + to_string(b.variant) + " model of " +
                          std::to_string(b.input_channels) + " input channels, the main one a " + to_string(a.variant) +
                          " model of " + std::to_string(a.input_channels) +
                          ": they must share the variant, the field's scale and the input channels");
   }
+  if (sdf_->config().reads_context())
+    throw InvalidInput("the main SDF model reads unmasked images with an object channel; it can only be the photo "
+                       "model (--photo-model), which reads the crops recon makes");
 }
 
 Reconstructor::~Reconstructor() = default;
@@ -93,6 +98,9 @@ std::unique_ptr<Reconstructor> Reconstructor::load(const std::string& sdf_path, 
                                                    const std::string& photo_pose_path,
                                                    const std::string& photo_sdf_path) {
   auto sdf = load_sdf_model(sdf_path);
+  if (sdf->config().reads_context())
+    throw InvalidInput(sdf_path + ": this SDF model reads unmasked images with an object channel; it can only be "
+                                  "the photo model (--photo-model), which reads the crops recon makes");
   std::unique_ptr<SdfNet> photo_sdf;
   if (!photo_sdf_path.empty()) photo_sdf = load_sdf_model(photo_sdf_path);
   std::unique_ptr<PoseNet> pose, photo_pose;
@@ -192,19 +200,9 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
     for (int y = 0; y < missing->height; ++y)
       for (int x = 0; x < missing->width; ++x) missing_channel.at(x, y) = missing->at(x, y, src);
   }
-  // The network input of the framing: RGB, plus the missing-data mask taken through the same crop when given.
+  // The network input of the framing (run_input's layout).
   const auto make_input = [&](const FramedInput& f) {
-    Eigen::VectorXf rgb = network_image(f.image);
-    if (missing == nullptr) return rgb;
-    const Image m = frame_channel(missing_channel, f);
-    const Eigen::Index n = kNetImageSize * kNetImageSize;
-    Eigen::VectorXf full(4 * n);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const float w = std::clamp(m.data[static_cast<size_t>(i)], 0.f, 1.f);
-      for (int c = 0; c < 3; ++c) full[c * n + i] = (1 - w) * rgb[c * n + i] + w * kNetBackground;
-      full[3 * n + i] = w;
-    }
-    return full;
+    return framed_input(image, f, missing != nullptr ? &missing_channel : nullptr);
   };
   Eigen::VectorXf input = make_input(framed);
   const int fits = framed.reframed ? fit_framing(image, framed, input, camera, settings, what, make_input) : 0;
@@ -229,6 +227,34 @@ ReconResult Reconstructor::run(const Image& image, const Image* mask, const Came
   r.timings.prepare = prep;
   r.timings.total += prep;
   return r;
+}
+
+Eigen::VectorXf Reconstructor::framed_input(const Image& image, const FramedInput& f, const Image* missing) const {
+  const Eigen::VectorXf rgb = network_image(f.image);
+  const bool context = f.reframed && photo_sdf_ != nullptr && photo_sdf_->config().reads_context();
+  if (missing == nullptr && !context) return rgb;
+  const Eigen::Index n = kNetImageSize * kNetImageSize;
+  Image m;
+  if (missing != nullptr) m = frame_channel(*missing, f);
+  const auto missing_at = [&](Eigen::Index i) {
+    return missing != nullptr ? std::clamp(m.data[static_cast<size_t>(i)], 0.f, 1.f) : 0.f;
+  };
+  Eigen::VectorXf full((context ? 8 : 4) * n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const float w = missing_at(i);
+    for (int c = 0; c < 3; ++c) full[c * n + i] = (1 - w) * rgb[c * n + i] + w * kNetBackground;
+    full[3 * n + i] = w;
+  }
+  if (context) {
+    Eigen::VectorXf ctx = context_input(image, f);
+    keep_band(ctx.head(3 * n), 3, ctx.tail(n), photo_sdf_->config().context_band, kNetBackground);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const float w = missing_at(i);
+      for (int c = 0; c < 3; ++c) full[(4 + c) * n + i] = (1 - w) * ctx[c * n + i] + w * kNetBackground;
+      full[7 * n + i] = (1 - w) * ctx[3 * n + i];
+    }
+  }
+  return full;
 }
 
 int Reconstructor::fit_framing(const Image& image, FramedInput& framed, Eigen::VectorXf& input, const Camera* camera,
@@ -308,10 +334,17 @@ Mesh Reconstructor::reconstruct(const std::vector<ViewRef>& views, const ReconSe
   std::vector<SdfNet::ShapeCode> codes, mirrored;
   for (const ViewRef& v : views) {
     const Eigen::VectorXf& input = *v.input;
-    Eigen::VectorXf mask;
-    if (input.size() == 4 * n) mask = input.tail(n);
-    const Eigen::VectorXf net_input =
-        network_input(input.head(3 * n), mask.size() ? &mask : nullptr, v.net->config().input_channels);
+    Eigen::VectorXf net_input;
+    if (v.net->config().reads_context()) {
+      if (input.size() != 8 * n)
+        throw InvalidInput(what + ": the photo SDF model reads unmasked crops with the object's mask; this input has "
+                                  "none (it was not reframed)");
+      net_input = input.tail(4 * n);
+    } else {
+      Eigen::VectorXf mask;
+      if (input.size() >= 4 * n) mask = input.segment(3 * n, n);
+      net_input = network_input(input.head(3 * n), mask.size() ? &mask : nullptr, v.net->config().input_channels);
+    }
     codes.push_back(v.net->encode(net_input.data(), v.camera));
     if (settings.mirror_tta) {
       const Eigen::VectorXf flipped = flip_network_input(net_input, kNetImageSize);
@@ -374,8 +407,9 @@ ReconResult Reconstructor::run_input(const Eigen::VectorXf& full_input, const Ca
                                      const ReconSettings& settings, const std::string& what,
                                      const Image* silhouette, bool reframed) const {
   constexpr Eigen::Index kPixels = kNetImageSize * kNetImageSize;
-  require(full_input.size() == 3 * kPixels || full_input.size() == 4 * kPixels,
-          what + ": network input must be 3 x 137 x 137 (RGB) or 4 x 137 x 137 (RGB + missing-data mask)");
+  require(full_input.size() == 3 * kPixels || full_input.size() == 4 * kPixels || full_input.size() == 8 * kPixels,
+          what + ": network input must be 3 x 137 x 137 (RGB), 4 x 137 x 137 (RGB + missing-data mask) or 8 x 137 x "
+                 "137 (those and the unmasked crop with the object's mask)");
   // The pose network, the silhouette and the preview read the RGB channels; the SDF network reads the mask too when it
   // has the channel (reconstruct()).
   const Eigen::VectorXf input = full_input.head(3 * kPixels);
@@ -476,10 +510,10 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
   for (size_t i = 0; i < images.size(); ++i) {
     auto t = Clock::now();
     framed[i] = frame_input(images[i], nullptr, settings.framing, what[i]);
-    inputs[i] = network_image(framed[i].image);
+    inputs[i] = framed_input(images[i], framed[i], nullptr);
     if (framed[i].reframed) {
       const int fits = fit_framing(images[i], framed[i], inputs[i], cameras[i], settings, what[i],
-                                   [](const FramedInput& f) { return network_image(f.image); });
+                                   [&](const FramedInput& f) { return framed_input(images[i], f, nullptr); });
       if (i == 0) r.framing_fits = fits;  // the result's framing is the first view's
     }
     Camera cam;
@@ -490,7 +524,7 @@ ReconResult Reconstructor::run_views(const std::vector<Image>& images, const std
       r.timings.prepare += since(t);
       t = Clock::now();
       double turn = 0;
-      cam = estimate_network_camera(inputs[i], settings, &turn, framed[i].reframed);
+      cam = estimate_network_camera(inputs[i].head(3 * kNetImageSize * kNetImageSize), settings, &turn, framed[i].reframed);
       r.timings.pose += since(t);
       if (i == 0) r.flip_turn_deg = turn;
     }

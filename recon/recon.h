@@ -204,8 +204,11 @@ class Reconstructor {
   /// by their coverage, which is also the SDF network's mask channel when it has one (an RGB network sees the white).
   ReconResult run(const Image& image, const Image* mask, const Camera* camera, const ReconSettings& settings,
                   const std::string& what, const Image* missing = nullptr) const;
-  /// Same from a prepared network input: 3 x 137 x 137 RGB, or 4 x 137 x 137 with the missing-data mask (the pose
-  /// network, camera refinement and the preview read the RGB channels). `silhouette` (137 x 137 coverage: the framed alpha in run()) is
+  /// Same from a prepared network input: 3 x 137 x 137 RGB, or 4 x 137 x 137 with the missing-data mask, or 8 x 137
+  /// x 137: those four channels, then the unmasked crop and the object's mask (context_input, recon/framing.h) that a
+  /// photo SDF model with an object channel reads (SdfNetConfig::MaskChannel::kObject; run() makes them for the inputs
+  /// it reframes when that model is loaded). The pose network, camera refinement and the preview read the first three
+  /// channels. `silhouette` (137 x 137 coverage: the framed alpha in run()) is
   /// the mask camera refinement aligns to; null = input_foreground(input).
   /// `reframed`: the input is a crop recon made of a larger image (run() passes FramedInput::reframed): its camera
   /// is estimated by the photo pose network when one is loaded.
@@ -228,6 +231,11 @@ class Reconstructor {
 
  private:
   struct MeshStats;
+  /// The network input of `framed` (frame_input's answer for `image`) in run_input's layout: RGB on white, the
+  /// missing-data mask taken through the crop when `missing` (1 channel, the image's size) is given, and the
+  /// context channels when the input is reframed and the photo SDF model reads them (missing pixels white there,
+  /// and out of the object's mask).
+  Eigen::VectorXf framed_input(const Image& image, const FramedInput& framed, const Image* missing) const;
   /// ReconSettings::framing_fit_rounds for run(): moves `framed`'s crop (and `input`, remade by `make_input`);
   /// returns the rounds that moved it.
   int fit_framing(const Image& image, FramedInput& framed, Eigen::VectorXf& input, const Camera* camera,
@@ -238,7 +246,7 @@ class Reconstructor {
   Camera estimate_network_camera(const Eigen::VectorXf& input, const ReconSettings& settings, double* flip_turn_deg,
                                  bool reframed) const;
   struct ViewRef {
-    const Eigen::VectorXf* input;  ///< network input (3 or 4 x 137 x 137)
+    const Eigen::VectorXf* input;  ///< network input (3, 4 or 8 x 137 x 137: run_input's layout)
     Camera camera;                 ///< its camera of the 137 px network image
     const SdfNet* net;             ///< the SDF network that reads it (sdf_for)
   };

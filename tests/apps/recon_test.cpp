@@ -6,6 +6,7 @@
 #include "core/json.h"
 #include "core/mesh_io.h"
 #include "metrics/protocols.h"
+#include "nets/sdf_train.h"
 #include "sdf/orientation.h"
 
 #include <doctest/doctest.h>
@@ -380,6 +381,50 @@ TEST_CASE("recon of a non-square photo-like image: plain background found, refra
   const Run rn = run("recon " + in + " -o " + (dir / "comp_bad.stl").string() + " --framing none --framing-fit 1");
   CHECK(rn.code == 1);
   CHECK(rn.err.find("--framing-fit") != std::string::npos);
+}
+
+TEST_CASE("recon with an object-channel photo model: it reads the unmasked crop, and only as the photo model") {
+  REQUIRE(have_models());
+  const fs::path dir = test::scratch_dir("recon_cli") / "context";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  // The shipped photo SDF model's weights declared as an object-channel model: the same network, another input.
+  const auto photo = load_sdf_model(kSource + "/data/models/sdf_photo.ckpt");
+  SdfNetConfig config = photo->config();
+  config.mask_channel = SdfNetConfig::MaskChannel::kObject;
+  SdfNet ctx(config);
+  std::copy(photo->params().values.begin(), photo->params().values.end(), ctx.params().values.begin());
+  const std::string ctx_path = (dir / "ctx.ckpt").string();
+  save_sdf_model(ctx_path, ctx);
+  // The plane example off-centre on a photo-like image whose background is a plain colour with stripes.
+  const Image plane = read_image(kSource + "/data/examples/plane_0010.png");
+  Image comp(300, 180, 3);
+  for (int y = 0; y < comp.height; ++y)
+    for (int x = 0; x < comp.width; ++x) {
+      const float stripe = (x / 6) % 2 ? 0.1f : 0.f;
+      const float bg[3] = {0.15f + stripe, 0.3f, 0.75f - stripe};
+      const bool in_plane = x >= 150 && y >= 30 && x < 150 + plane.width && y < 30 + plane.height;
+      const float a = in_plane ? plane.at(x - 150, y - 30, 3) : 0.f;
+      for (int c = 0; c < 3; ++c) comp.at(x, y, c) = a * (in_plane ? plane.at(x - 150, y - 30, c) : 0.f) + (1 - a) * bg[c];
+    }
+  const std::string in = (dir / "comp.png").string();
+  write_image(in, comp);
+  const std::string m_ctx = (dir / "ctx.obj").string(), m_def = (dir / "def.obj").string();
+  const Run rc = run("recon " + in + " -o " + m_ctx + " --res 33 --json --no-preview --photo-model " +
+                     ctx_path);
+  const Run rd = run("recon " + in + " -o " + m_def + " --res 33 --json --no-preview");
+  REQUIRE_MESSAGE(rc.code == 0, rc.err);
+  REQUIRE_MESSAGE(rd.code == 0, rd.err);
+  const Json jc = Json::parse(rc.out), jd = Json::parse(rd.out);
+  CHECK(jc["sdf_model"] == "photo");
+  CHECK(jc["framing"]["reframed"].get<bool>());
+  CHECK(jc["network_camera"] == jd["network_camera"]);  // the pose network reads the same composite
+  CHECK(read_file(m_ctx) != read_file(m_def));         // the SDF network reads the stripes and the object's mask
+  CHECK(read_mesh(m_ctx).num_faces() > 0);
+  // As the main model it is refused, named: only the crops recon makes carry its channels.
+  const Run rm = run("recon " + in + " -o " + m_ctx + " --model " + ctx_path);
+  CHECK(rm.code == 1);
+  CHECK(rm.err.find("unmasked") != std::string::npos);
 }
 
 TEST_CASE("recon outputs: the format follows -o, a folder only for a folder input, flags that do not apply fail") {

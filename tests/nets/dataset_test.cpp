@@ -1,5 +1,6 @@
 #include "core/json.h"
 #include "nets/dataset.h"
+#include "nets/context.h"
 
 #include "camera/camera.h"
 #include "camera/image.h"
@@ -12,8 +13,10 @@
 #include <doctest/doctest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <set>
+#include <vector>
 
 using namespace sdfkit;
 namespace fs = std::filesystem;
@@ -656,9 +659,15 @@ TEST_CASE("network_input appends the missing-data mask for an RGB + mask network
   CHECK_THROWS_AS(network_input(rgb, &mask, 5), InvalidInput);
 }
 
-TEST_CASE("mask-error augmentation: seeded per image, thin parts dropped to white, identity when off") {
-  const int S = 40;
-  // A grey body (columns 10..29, rows 8..23) with a leg 2 px wide (columns 14-15) down to row 35, on white.
+namespace {
+
+/// Side of body_with_leg's images.
+constexpr int kLegSide = 40;
+
+/// Six 40 px images: a grey body (columns 10..29, rows 8..23) with a leg 2 px wide (columns 14-15) down to row 35,
+/// on white.
+MatrixXfR body_with_leg() {
+  constexpr int S = kLegSide;
   MatrixXfR images = MatrixXfR::Ones(6, 3 * S * S);
   auto ink = [&](int b, int x, int y) {
     for (int c = 0; c < 3; ++c) images(b, (c * S + y) * S + x) = 0.3f + 0.1f * c;
@@ -668,6 +677,14 @@ TEST_CASE("mask-error augmentation: seeded per image, thin parts dropped to whit
       for (int x = 10; x < 30; ++x) ink(b, x, y);
     for (int y = 24; y < 36; ++y) ink(b, 14, y), ink(b, 15, y);
   }
+  return images;
+}
+
+}  // namespace
+
+TEST_CASE("mask-error augmentation: seeded per image, thin parts dropped to white, identity when off") {
+  const int S = kLegSide;
+  MatrixXfR images = body_with_leg();
   const MatrixXfR clean = images;
   MaskErrorAugmentSettings st;
   st.prob = 1;
@@ -699,4 +716,124 @@ TEST_CASE("mask-error augmentation: seeded per image, thin parts dropped to whit
   CHECK(std::count(applied.begin(), applied.end(), 1) == 0);
   st.prob = 2;
   CHECK_THROWS_AS(mask_error_images(off, st, 4, 20), InvalidInput);
+}
+
+TEST_CASE("ink_mask: 1 on the non-white pixels, 0 on the white ones") {
+  const int S = kLegSide;
+  const MatrixXfR images = body_with_leg();
+  const Eigen::VectorXf m = ink_mask(images.row(0).transpose());
+  REQUIRE(m.size() == S * S);
+  CHECK(m.sum() == doctest::Approx(20 * 16 + 2 * 12));
+  CHECK(m[16 * S + 20] == 1.f);
+  CHECK(m[2 * S + 2] == 0.f);
+  CHECK(m[30 * S + 14] == 1.f);
+}
+
+TEST_CASE("context augmentation: the mask channel is the object's, backgrounds replace only the white pixels") {
+  const int S = kLegSide;
+  const MatrixXfR clean = body_with_leg();
+  const Eigen::VectorXf object = ink_mask(clean.row(0).transpose());
+  ContextAugmentSettings st;
+  // Off: images untouched, every mask the exact object mask.
+  {
+    MatrixXfR images = clean, masks;
+    std::vector<char> drawn;
+    context_images(images, masks, st, nullptr, 3, 10, &drawn);
+    CHECK(images == clean);
+    REQUIRE(masks.rows() == 6);
+    REQUIRE(masks.cols() == S * S);
+    for (int b = 0; b < 6; ++b) CHECK(masks.row(b) == object.transpose());
+    CHECK(std::count(drawn.begin(), drawn.end(), 1) == 0);
+  }
+  // Every background drawn (procedural, no photographs): the object's pixels and the mask stay; some white pixels
+  // change in every image; seeded per (seed, stream + b), whatever the thread count.
+  st.prob = 1;
+  MatrixXfR images = clean, masks;
+  std::vector<char> drawn;
+  context_images(images, masks, st, nullptr, 3, 10, &drawn);
+  CHECK(std::count(drawn.begin(), drawn.end(), 1) == 6);
+  for (int b = 0; b < 6; ++b) {
+    CHECK(masks.row(b) == object.transpose());
+    long changed = 0;
+    for (int i = 0; i < S * S; ++i)
+      for (int c = 0; c < 3; ++c) {
+        const float before = clean(b, c * S * S + i), after = images(b, c * S * S + i);
+        if (object[i] > 0) CHECK(after == before);
+        changed += after != before;
+        CHECK(after >= 0.f);
+        CHECK(after <= 1.f);
+      }
+    CHECK(changed > 0);
+  }
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    MatrixXfR again = clean, masks_again;
+    context_images(again, masks_again, st, nullptr, 3, 10);
+    CHECK(again == images);
+    CHECK(masks_again == masks);
+  }
+  // Image b of stream 10 is image b - 1 of stream 11.
+  MatrixXfR shifted = clean, masks_shifted;
+  context_images(shifted, masks_shifted, st, nullptr, 3, 11);
+  for (int b = 1; b < 6; ++b) CHECK(shifted.row(b - 1) == images.row(b));
+  CHECK(shifted.row(0) != images.row(0));
+  // Out-of-range settings and rows that are not square images are refused.
+  st.prob = 1.5;
+  CHECK_THROWS_AS(context_images(images, masks, st, nullptr, 3, 10), InvalidInput);
+  st.prob = 1;
+  MatrixXfR odd = MatrixXfR::Ones(2, 3 * 40 * 39);
+  CHECK_THROWS_AS(context_images(odd, masks, st, nullptr, 3, 10), InvalidInput);
+}
+
+TEST_CASE("context augmentation: a mask error changes the mask channel only, the pixels keep the whole object") {
+  const int S = kLegSide;
+  const MatrixXfR clean = body_with_leg();
+  const Eigen::VectorXf object = ink_mask(clean.row(0).transpose());
+  ContextAugmentSettings st;
+  st.mask_error = 1;
+  st.error.thin_drop = 1;
+  st.error.blob_prob = 0;
+  st.error.edge_prob = 0;
+  MatrixXfR images = clean, masks;
+  context_images(images, masks, st, nullptr, 5, 0);
+  CHECK(images == clean);  // no background drawn: the RGB is the white render
+  for (int b = 0; b < 6; ++b) {
+    for (int i = 0; i < S * S; ++i) CHECK((masks(b, i) == 0.f || masks(b, i) == 1.f));
+    for (int y = 28; y < 36; ++y) {  // the leg, below the body's reach: out of the mask, still in the pixels
+      CHECK(masks(b, y * S + 14) == 0.f);
+      CHECK(images(b, y * S + 14) == clean(b, y * S + 14));
+      CHECK(object[y * S + 14] == 1.f);
+    }
+    CHECK(masks(b, 16 * S + 20) == 1.f);  // the body's centre stays object
+  }
+  // With blobs the mask also takes in pixels outside the object.
+  st.error.blob_prob = 1;
+  MatrixXfR with_blobs = clean, blob_masks;
+  context_images(with_blobs, blob_masks, st, nullptr, 5, 0);
+  long taken_in = 0;
+  for (int b = 0; b < 6; ++b)
+    for (int i = 0; i < S * S; ++i) taken_in += blob_masks(b, i) > 0 && object[i] == 0;
+  CHECK(taken_in > 0);
+  CHECK(with_blobs == clean);
+}
+
+TEST_CASE("keep_band: pixels within the band's disc of the mask stay, the rest become the background") {
+  const int S = 15, n = S * S;
+  Eigen::VectorXf mask = Eigen::VectorXf::Zero(n);
+  mask[7 * S + 7] = 1.f;   // one pixel: the disc of radius 2 about it has 13 pixels
+  mask[0] = 0.4f;          // under 0.5: not object
+  Eigen::VectorXf image = Eigen::VectorXf::Constant(2 * n, 0.25f);
+  Eigen::VectorXf same = image;
+  keep_band(same, 2, mask, 0, 1.f);
+  CHECK(same == image);  // band 0: the whole image
+  keep_band(image, 2, mask, 2, 1.f);
+  int kept = 0;
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      const bool in = (x - 7) * (x - 7) + (y - 7) * (y - 7) <= 4;
+      for (int c = 0; c < 2; ++c) CHECK(image[c * n + y * S + x] == (in ? 0.25f : 1.f));
+      kept += in;
+    }
+  CHECK(kept == 13);
+  CHECK_THROWS_AS(keep_band(image, 3, mask, 2, 1.f), InvalidInput);
 }

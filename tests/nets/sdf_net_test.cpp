@@ -450,4 +450,25 @@ TEST_CASE("SDF network configuration round-trips through JSON and rejects bad va
   c = tiny_config(SdfVariant::kTwoStream);
   c.input_channels = 2;
   CHECK_THROWS_AS(SdfNetT<float>{c}, InvalidInput);
+  // The fourth channel's meaning: written only for the object mask (older models keep their bytes), read back,
+  // absent = the missing-data mask, another name refused; an object mask needs the fourth channel.
+  c = tiny_config(SdfVariant::kTwoStream);
+  c.input_channels = 4;
+  CHECK(!c.to_json().contains("mask_channel"));
+  CHECK(!c.reads_context());
+  c.mask_channel = SdfNetConfig::MaskChannel::kObject;
+  CHECK(c.to_json().at("mask_channel") == "object");
+  c.context_band = 6;
+  CHECK(SdfNetConfig::from_json(c.to_json()).context_band == 6);
+  c.context_band = -1;
+  CHECK_THROWS_AS(SdfNetT<float>{c}, InvalidInput);
+  c.context_band = 6;
+  CHECK(SdfNetConfig::from_json(c.to_json()).reads_context());
+  CHECK(SdfNetConfig::from_json(c.to_json()).to_json() == c.to_json());
+  bad = c.to_json();
+  bad["mask_channel"] = "depth";
+  CHECK_THROWS_AS(SdfNetConfig::from_json(bad), IoError);
+  c.input_channels = 3;
+  CHECK(!c.reads_context());
+  CHECK_THROWS_AS(SdfNetT<float>{c}, InvalidInput);
 }

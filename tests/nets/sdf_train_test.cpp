@@ -4,6 +4,7 @@
 #include "camera/camera.h"
 #include "camera/image.h"
 #include "core/error.h"
+#include "cli_run.h"
 #include "core/files.h"
 #include "core/primitives.h"
 #include "core/random.h"
@@ -402,6 +403,106 @@ TEST_CASE("occluded training with a mask channel: recorded, starts from an RGB m
   // An RGB model of another architecture cannot start a mask-channel one.
   st.net.global_features = 8;
   CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  fs::remove_all(root);
+}
+
+TEST_CASE("object-channel training: recorded, starts from a mask-channel model, resumes bit for bit, refuses mixes") {
+  const fs::path root = make_torus_dataset("sdf_train_context");
+  // Two background photographs (a gradient and stripes) for the drawn backgrounds.
+  const fs::path photos = root / "photos";
+  for (int k = 0; k < 2; ++k) {
+    Image p(64, 48, 3);
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 64; ++x)
+        for (int c = 0; c < 3; ++c) p.at(x, y, c) = k == 0 ? float(x) / 63.f * (c + 1) / 3.f : float((x / 4 + c) % 2);
+    write_image((photos / ("p" + std::to_string(k) + ".png")).string(), p);
+  }
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
+  st.steps = 6;
+  st.net.input_channels = 4;
+  st.out = (root / "missing.ckpt").string();
+  train_sdf(st);
+  st.init = st.out;
+  st.net.mask_channel = SdfNetConfig::MaskChannel::kObject;
+  st.context.prob = 1.0;
+  st.context.mask_error = 1.0;
+  st.context_backgrounds = photos.string();
+  straight_and_split(st, root, "c");
+  CHECK(params(root, "c_straight.ckpt") == params(root, "c_split.ckpt"));
+  const Checkpoint ck = load_checkpoint((root / "c_straight.ckpt").string());
+  CHECK(ck.header.at("config").at("mask_channel") == "object");
+  CHECK(ck.header.at("training").at("context").at("prob") == 1.0);
+  CHECK(ck.header.at("training").at("context_backgrounds") == photos.string());
+  CHECK(load_sdf_model((root / "c_straight.ckpt").string())->config().reads_context());
+  // A banded network starts from the whole-image one; its band is recorded; a band the network lacks is refused.
+  {
+    SdfTrainSettings banded = st;
+    banded.init = (root / "c_straight.ckpt").string();
+    banded.net.context_band = banded.context.band = 4;
+    banded.out = (root / "c_band.ckpt").string();
+    banded.steps = 3;
+    train_sdf(banded);
+    CHECK(load_checkpoint(banded.out).header.at("config").at("context_band") == 4);
+    banded.context.band = 0;
+    banded.out = (root / "c_band_bad.ckpt").string();
+    CHECK_THROWS_AS(train_sdf(banded), InvalidInput);
+  }
+  // The drawn backgrounds changed the training.
+  st.context.prob = 0;
+  st.context.mask_error = 0;
+  st.out = (root / "c_white.ckpt").string();
+  st.resume = false;
+  train_sdf(st);
+  CHECK(params(root, "c_straight.ckpt") != params(root, "c_white.ckpt"));
+  // Mixes refused before anything is written: occlusion or the image-side mask error with an object channel, the
+  // context options without one, a missing background folder.
+  st.out = (root / "bad.ckpt").string();
+  {
+    SdfTrainSettings bad = st;
+    bad.occlusion.kind = OcclusionAugmentSettings::Kind::kHalf;
+    CHECK_THROWS_AS(train_sdf(bad), InvalidInput);
+  }
+  {
+    SdfTrainSettings bad = st;
+    bad.mask_error.prob = 0.5;
+    CHECK_THROWS_AS(train_sdf(bad), InvalidInput);
+  }
+  {
+    SdfTrainSettings bad = st;
+    bad.net.mask_channel = SdfNetConfig::MaskChannel::kMissing;
+    bad.context.prob = 0.5;
+    CHECK_THROWS_AS(train_sdf(bad), InvalidInput);
+  }
+  {
+    SdfTrainSettings bad = st;
+    bad.context.prob = 0.5;
+    bad.context_backgrounds = (root / "no_such_folder").string();
+    CHECK_THROWS_AS(train_sdf(bad), IoError);
+  }
+  CHECK(!fs::exists(st.out));
+  fs::remove_all(root);
+}
+
+TEST_CASE("train sdf CLI: the object-channel flags train, conflicting ones fail with one line before any file") {
+  const fs::path root = make_torus_dataset("sdf_train_context_cli");
+  const std::string base = "train sdf --data " + root.string() + " --val-split \"\" --steps 2 --batch 2 --points 64 "
+                           "--encoder 4,6,8 --global 16 --point-mlp 8 --decoder 8 --val-every 2 --val-shapes 1 ";
+  const std::string model = (root / "m.ckpt").string();
+  const test::CliRun ok = test::run_sdfkit(base + "--object-channel --aug-context 1 --context-mask-error 1 "
+                                           "--context-band 5 -o " + model + " --json");
+  REQUIRE_MESSAGE(ok.code == 0, ok.err);
+  const Json config = load_checkpoint(model).header.at("config");
+  CHECK(config.at("mask_channel") == "object");
+  CHECK(config.at("context_band") == 5);
+  for (const std::string flag : {"--mask-channel --object-channel", "--context-band 5", "--aug-context 0.5",
+                                 "--object-channel --occlusion half", "--object-channel --aug-mask-error 0.5"}) {
+    CAPTURE(flag);
+    const std::string bad = (root / "bad.ckpt").string();
+    const test::CliRun r = test::run_sdfkit(base + flag + " -o " + bad);
+    CHECK(r.code == 1);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK(!fs::exists(bad));
+  }
   fs::remove_all(root);
 }
 

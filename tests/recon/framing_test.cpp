@@ -257,6 +257,51 @@ TEST_CASE("framing: a channel of the input's size follows the crop (identity whe
   CHECK_THROWS_AS(frame_channel(Image(10, 10, 1), f), InvalidInput);
 }
 
+TEST_CASE("framing: the context input is the unmasked crop and the object's coverage") {
+  // An ellipse near the top-right corner of a blue photo: the crop reaches past the image's edges.
+  const float blue[3] = {0.1f, 0.2f, 0.7f};
+  const Image photo = ellipse_image(300, 180, 262, 30, 36, 24, blue);
+  const FramedInput f = frame_input(photo, nullptr, FramingSettings{}, "photo");
+  REQUIRE(f.reframed);
+  REQUIRE(f.x0 + f.side > 300);
+  const Eigen::VectorXf ctx = context_input(photo, f);
+  const int n = kNetImageSize * kNetImageSize;
+  REQUIRE(ctx.size() == 4 * n);
+  const Eigen::VectorXf composite = network_image(f.image);
+  long object = 0, background = 0, outside = 0;
+  for (int y = 0; y < kNetImageSize; ++y)
+    for (int x = 0; x < kNetImageSize; ++x) {
+      const int i = y * kNetImageSize + x;
+      CHECK(ctx[3 * n + i] == f.image.at(x, y, 3));  // the mask channel: the framing's coverage
+      // The input pixel at this network pixel's centre, and whether its footprint lies inside the image.
+      const double s = f.side / kNetImageSize;
+      const double u = f.x0 + (x + 0.5) * s, v = f.y0 + (y + 0.5) * s;
+      const bool inside = u > s && v > s && u < 300 - s && v < 180 - s;
+      if (!inside) {
+        if (u > 300 + s || v < -s) {  // wholly outside: white
+          ++outside;
+          for (int c = 0; c < 3; ++c) CHECK(ctx[c * n + i] == doctest::Approx(1.0));
+        }
+        continue;
+      }
+      const float a = f.image.at(x, y, 3);
+      if (a > 0.999f) {  // the object: the composite's colour (up to the footprint's edge samples it mixes)
+        ++object;
+        for (int c = 0; c < 3; ++c) CHECK(std::abs(ctx[c * n + i] - composite[c * n + i]) < 2e-3);
+      } else if (a < 1e-3f) {  // the background: the photo's blue where the composite is white
+        ++background;
+        for (int c = 0; c < 3; ++c) {
+          CHECK(ctx[c * n + i] == doctest::Approx(blue[c]).epsilon(1e-4));
+          CHECK(composite[c * n + i] == doctest::Approx(1.0));
+        }
+      }
+    }
+  CHECK(object > 1000);
+  CHECK(background > 1000);
+  CHECK(outside > 0);
+  CHECK_THROWS_AS(context_input(Image(10, 10, 3), f), InvalidInput);
+}
+
 TEST_CASE("the training reframing augmentation frames a render where recon frames it") {
   // Defaults: the augmentation's framing is recon's (the apps set it with frame_like_recon; the structs agree too).
   const TrainingFraming tf;

@@ -1,0 +1,129 @@
+#include "nets/context.h"
+
+#include "core/error.h"
+#include "core/random.h"
+#include "nets/dataset.h"
+
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+#include <string>
+
+namespace sdfkit {
+
+Json ContextAugmentSettings::to_json() const {
+  MaskErrorAugmentSettings m;  // the error's settings, as --aug-mask-error records them
+  m.error = error;
+  Json j = m.to_json();
+  j["prob"] = prob;
+  j["mask_error"] = mask_error;
+  j["procedural"] = background.procedural;
+  j["background_jitter"] = background.background_jitter;
+  j["clutter"] = background.clutter;
+  j["band"] = band;
+  return j;
+}
+
+void ContextAugmentSettings::validate() const {
+  require(prob >= 0 && prob <= 1, "context augmentation: the background probability must be in [0, 1]");
+  require(mask_error >= 0 && mask_error <= 1, "context augmentation: the mask-error probability must be in [0, 1]");
+  require(band >= 0 && band <= 1000, "context augmentation: the band must be 0..1000 pixels");
+  error.validate();
+  background.validate();
+}
+
+void keep_band(Eigen::Ref<Eigen::VectorXf> image, int channels, const Eigen::Ref<const Eigen::VectorXf>& mask, int band,
+               float background) {
+  const Eigen::Index n = mask.size();
+  const auto S = static_cast<int>(std::lround(std::sqrt(static_cast<double>(n))));
+  require(band >= 0, "keep_band: the band must be non-negative");
+  require(static_cast<Eigen::Index>(S) * S == n && channels > 0 && image.size() == channels * n,
+          "keep_band: the image and the mask must be square images of one size");
+  if (band == 0) return;
+  // Every pixel within the disc of radius `band` about a mask pixel is kept (brute force: the band is a few pixels).
+  std::vector<char> keep(static_cast<size_t>(n), 0);
+  const long b2 = static_cast<long>(band) * band;
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      if (mask[static_cast<Eigen::Index>(y) * S + x] <= 0.5f) continue;
+      for (int dy = -band; dy <= band; ++dy) {
+        const int yy = y + dy;
+        if (yy < 0 || yy >= S) continue;
+        for (int dx = -band; dx <= band; ++dx) {
+          const int xx = x + dx;
+          if (xx < 0 || xx >= S || static_cast<long>(dx) * dx + static_cast<long>(dy) * dy > b2) continue;
+          keep[static_cast<size_t>(yy) * S + xx] = 1;
+        }
+      }
+    }
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!keep[static_cast<size_t>(i)])
+      for (int c = 0; c < channels; ++c) image[c * n + i] = background;
+}
+
+Eigen::VectorXf ink_mask(const Eigen::Ref<const Eigen::VectorXf>& image) {
+  const Eigen::Index n = image.size() / 3;
+  require(image.size() == 3 * n, "ink_mask: the image must hold 3 channels");
+  Eigen::VectorXf m(n);
+  for (Eigen::Index i = 0; i < n; ++i) m[i] = is_ink(image[i], image[n + i], image[2 * n + i]) ? 1.f : 0.f;
+  return m;
+}
+
+void context_images(MatrixXfR& images, MatrixXfR& masks, const ContextAugmentSettings& s,
+                    const BackgroundSet* backgrounds, uint64_t seed, uint64_t stream, std::vector<char>* drawn) {
+  s.validate();
+  const Eigen::Index B = images.rows();
+  if (drawn) drawn->assign(static_cast<size_t>(B), 0);
+  const Eigen::Index plane = images.cols() / 3;
+  const auto S = static_cast<int>(std::lround(std::sqrt(static_cast<double>(plane))));
+  require(B == 0 || (images.cols() % 3 == 0 && static_cast<Eigen::Index>(S) * S == plane && S > 0),
+          "context augmentation: rows must hold 3 square channels, got " + std::to_string(images.cols()) + " values");
+  masks.setZero(B, plane);
+  // The drawn background of image b in place of its non-object pixels.
+  const auto draw = [&](Eigen::Index b, const Eigen::VectorXf& object, Rng& rng) {
+    std::array<float, 3> near{1, 1, 1};
+    const double count = object.sum();
+    if (count > 0)
+      for (int c = 0; c < 3; ++c) {
+        double sum = 0;
+        for (Eigen::Index i = 0; i < plane; ++i) sum += object[i] * images(b, c * plane + i);
+        near[static_cast<size_t>(c)] = static_cast<float>(sum / count);
+      }
+    const Image back = draw_background(S, S, backgrounds, s.background, near, rng);
+    for (int y = 0; y < S; ++y)
+      for (int x = 0; x < S; ++x) {
+        const Eigen::Index i = static_cast<Eigen::Index>(y) * S + x;
+        if (object[i] > 0) continue;
+        for (int c = 0; c < 3; ++c) images(b, c * plane + i) = back.at(x, y, c);
+      }
+    if (drawn) (*drawn)[static_cast<size_t>(b)] = 1;
+  };
+  tbb::parallel_for(Eigen::Index(0), B, [&](Eigen::Index b) {
+    Rng rng = Rng::derived(seed ^ 0xc0417e87ULL, stream + static_cast<uint64_t>(b));
+    const bool err = rng.uniform() < s.mask_error;
+    const bool bg = rng.uniform() < s.prob;
+    const uint64_t error_seed = rng.next();
+    const Eigen::VectorXf object = ink_mask(images.row(b).transpose());
+    masks.row(b) = object.transpose();
+    if (err) {
+      Image rgba(S, S, 4);
+      for (int y = 0; y < S; ++y)
+        for (int x = 0; x < S; ++x) {
+          const Eigen::Index i = static_cast<Eigen::Index>(y) * S + x;
+          for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = images(b, c * plane + i);
+          rgba.at(x, y, 3) = object[i];
+        }
+      apply_mask_error(rgba, s.error, error_seed, kNetBackground);
+      for (int y = 0; y < S; ++y)
+        for (int x = 0; x < S; ++x) masks(b, static_cast<Eigen::Index>(y) * S + x) = rgba.at(x, y, 3) > 0.5f ? 1.f : 0.f;
+    }
+    if (bg) draw(b, object, rng);
+    if (s.band > 0) {
+      Eigen::VectorXf rgb = images.row(b).transpose();
+      keep_band(rgb, 3, masks.row(b).transpose(), s.band, kNetBackground);
+      images.row(b) = rgb.transpose();
+    }
+  });
+}
+
+}  // namespace sdfkit
