@@ -2,12 +2,10 @@
 
 #include "core/error.h"
 #include "core/random.h"
-#include "nets/dataset.h"
 
 #include <tbb/parallel_for.h>
 
 #include <cmath>
-#include <string>
 
 namespace sdfkit {
 
@@ -61,23 +59,13 @@ void keep_band(Eigen::Ref<Eigen::VectorXf> image, int channels, const Eigen::Ref
       for (int c = 0; c < channels; ++c) image[c * n + i] = background;
 }
 
-Eigen::VectorXf ink_mask(const Eigen::Ref<const Eigen::VectorXf>& image) {
-  const Eigen::Index n = image.size() / 3;
-  require(image.size() == 3 * n, "ink_mask: the image must hold 3 channels");
-  Eigen::VectorXf m(n);
-  for (Eigen::Index i = 0; i < n; ++i) m[i] = is_ink(image[i], image[n + i], image[2 * n + i]) ? 1.f : 0.f;
-  return m;
-}
-
 void context_images(MatrixXfR& images, MatrixXfR& masks, const ContextAugmentSettings& s,
                     const BackgroundSet* backgrounds, uint64_t seed, uint64_t stream, std::vector<char>* drawn) {
   s.validate();
   const Eigen::Index B = images.rows();
   if (drawn) drawn->assign(static_cast<size_t>(B), 0);
-  const Eigen::Index plane = images.cols() / 3;
-  const auto S = static_cast<int>(std::lround(std::sqrt(static_cast<double>(plane))));
-  require(B == 0 || (images.cols() % 3 == 0 && static_cast<Eigen::Index>(S) * S == plane && S > 0),
-          "context augmentation: rows must hold 3 square channels, got " + std::to_string(images.cols()) + " values");
+  const int S = B ? square_side(images.cols(), "context augmentation") : 0;
+  const Eigen::Index plane = static_cast<Eigen::Index>(S) * S;
   masks.setZero(B, plane);
   // The drawn background of image b in place of its non-object pixels.
   const auto draw = [&](Eigen::Index b, const Eigen::VectorXf& object, Rng& rng) {
@@ -106,13 +94,7 @@ void context_images(MatrixXfR& images, MatrixXfR& masks, const ContextAugmentSet
     const Eigen::VectorXf object = ink_mask(images.row(b).transpose());
     masks.row(b) = object.transpose();
     if (err) {
-      Image rgba(S, S, 4);
-      for (int y = 0; y < S; ++y)
-        for (int x = 0; x < S; ++x) {
-          const Eigen::Index i = static_cast<Eigen::Index>(y) * S + x;
-          for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = images(b, c * plane + i);
-          rgba.at(x, y, 3) = object[i];
-        }
+      Image rgba = ink_rgba(images.row(b).transpose(), S);  // its alpha is `object`
       apply_mask_error(rgba, s.error, error_seed, kNetBackground);
       for (int y = 0; y < S; ++y)
         for (int x = 0; x < S; ++x) masks(b, static_cast<Eigen::Index>(y) * S + x) = rgba.at(x, y, 3) > 0.5f ? 1.f : 0.f;

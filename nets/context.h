@@ -12,6 +12,7 @@
 #include "camera/mask_error.h"
 #include "core/files.h"
 #include "core/json.h"
+#include "nets/dataset.h"
 #include "nets/seg_data.h"
 
 #include <Eigen/Core>
@@ -20,7 +21,7 @@
 namespace sdfkit {
 
 /// `train sdf --object-channel` with `--aug-context P --context-mask-error Q`. Every image's mask channel is its
-/// object's mask (its non-white pixels, is_ink); then, each drawn from Rng::derived(seed, stream + b) only:
+/// object's mask (its non-white pixels, nets/dataset.h ink_mask); then, each drawn from Rng::derived(seed, stream + b) only:
 ///   - with probability `mask_error` the mask gets a segmentation error (camera/mask_error.h on the mask alone:
 ///     thin parts dropped, the outline moved, a blob added; the pixels keep the object and the background);
 ///   - with probability `prob` the image's white background (every non-object pixel) becomes a background drawn as
@@ -46,9 +47,6 @@ struct ContextAugmentSettings {
 /// `background`. band 0 keeps the image as it is. InvalidInput when the sizes disagree.
 void keep_band(Eigen::Ref<Eigen::VectorXf> image, int channels, const Eigen::Ref<const Eigen::VectorXf>& mask, int band,
                float background);
-
-/// The object mask of one network image (3 * S * S channels-first, white background): 1 where is_ink, else 0 (S * S).
-Eigen::VectorXf ink_mask(const Eigen::Ref<const Eigen::VectorXf>& image);
 
 /// Apply ContextAugmentSettings to B x (3 * S * S) rows in place (white backgrounds, the object being the non-white
 /// pixels); `masks` becomes B x (S * S), the mask channel of each image. `backgrounds` may be null or empty

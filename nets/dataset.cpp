@@ -294,9 +294,6 @@ Json ImageAugmentSettings::to_json() const {
   return {{"colour", colour}, {"channel_swap", channel_swap}, {"noise", noise}};
 }
 
-namespace {
-
-/// Side S of B x (3 * S * S) channels-first rows; InvalidInput naming `what` otherwise.
 int square_side(Eigen::Index values, const char* what) {
   const Eigen::Index plane = values / 3;
   const auto side = static_cast<Eigen::Index>(std::lround(std::sqrt(static_cast<double>(plane))));
@@ -304,8 +301,6 @@ int square_side(Eigen::Index values, const char* what) {
           std::string(what) + ": rows must hold 3 square channels, got " + std::to_string(values) + " values");
   return static_cast<int>(side);
 }
-
-}  // namespace
 
 void augment_images(MatrixXfR& images, const ImageAugmentSettings& a, uint64_t seed, uint64_t stream) {
   require(a.colour >= 0 && a.colour < 1, "augmentation: colour strength must be in [0, 1)");
@@ -552,8 +547,14 @@ std::string to_string(OcclusionAugmentSettings::Kind kind) {
   return "none";
 }
 
-namespace {
-// RGBA view of a network image (3 * S * S channels-first), the object (alpha 1) being its non-white pixels.
+Eigen::VectorXf ink_mask(const Eigen::Ref<const Eigen::VectorXf>& image) {
+  const Eigen::Index n = image.size() / 3;
+  require(image.size() == 3 * n, "ink_mask: the image must hold 3 channels");
+  Eigen::VectorXf m(n);
+  for (Eigen::Index i = 0; i < n; ++i) m[i] = is_ink(image[i], image[n + i], image[2 * n + i]) ? 1.f : 0.f;
+  return m;
+}
+
 Image ink_rgba(const Eigen::Ref<const Eigen::VectorXf>& image, int size) {
   const int64_t n = static_cast<int64_t>(size) * size;
   Image rgba(size, size, 4);
@@ -568,7 +569,6 @@ Image ink_rgba(const Eigen::Ref<const Eigen::VectorXf>& image, int size) {
     }
   return rgba;
 }
-}  // namespace
 
 Eigen::VectorXf occlude_network_image(Eigen::Ref<Eigen::VectorXf> image, int size, const OcclusionSettings& settings,
                                       uint64_t seed) {

@@ -223,6 +223,16 @@ struct InkBox {
 /// The box of the is_ink pixels of one image (3 * S * S channels-first values).
 InkBox ink_box(const Eigen::Ref<const Eigen::VectorXf>& image, int size);
 
+/// The object mask of one network image (3 * S * S channels-first, white background): 1 where is_ink, else 0 (S * S).
+Eigen::VectorXf ink_mask(const Eigen::Ref<const Eigen::VectorXf>& image);
+
+/// RGBA view of one network image (3 * S * S channels-first, white background): its colours, alpha 1 on its object
+/// (the is_ink pixels) and 0 elsewhere.
+Image ink_rgba(const Eigen::Ref<const Eigen::VectorXf>& image, int size);
+
+/// Side S of B x (3 * S * S) channels-first rows; InvalidInput naming `what` otherwise.
+int square_side(Eigen::Index values, const char* what);
+
 /// One image (3 * S * S channels-first values, white background) mapped by the similarity q -> d + k (q - m)
 /// (pixel-edge coordinates, image y down): source point m lands on d, magnified by k. Bilinear, 2 x 2 samples per
 /// pixel when shrinking, white outside the source; zoom_image is the case m = d = the image centre.

@@ -420,11 +420,9 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     zoom_images(batch.images, batch.cameras, st.zoom, st.seed, stream);
     reframe_images(batch.images, batch.cameras, st.reframe, st.seed, stream);
     if (st.adversarial.enabled()) {
-      const Eigen::Index n = batch.images.cols() / 3;
-      l.silhouettes.resize(batch.images.rows(), n);
+      l.silhouettes.resize(batch.images.rows(), batch.images.cols() / 3);
       for (Eigen::Index b = 0; b < batch.images.rows(); ++b)
-        for (Eigen::Index i = 0; i < n; ++i)
-          l.silhouettes(b, i) = is_ink(batch.images(b, i), batch.images(b, n + i), batch.images(b, 2 * n + i)) ? 1.f : 0.f;
+        l.silhouettes.row(b) = ink_mask(batch.images.row(b).transpose()).transpose();
     }
     occlude_images(batch.images, batch.masks, st.occlusion, st.seed, stream);
     if (st.net.reads_context())
