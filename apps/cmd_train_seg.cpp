@@ -44,6 +44,17 @@ std::function<int()> setup_train_seg(CLI::App& app) {
                  "weight of the soft-IoU term added to the per-pixel cross-entropy (0 = cross-entropy alone)")
       ->capture_default_str()
       ->check(non_negative());
+  auto* thin_radius =
+      app.add_option("--thin-radius", s.thin_radius,
+                     "with --thin-weight: the thin parts are what an opening by a disc of this radius (px of the "
+                     "--size input) removes from the object")
+          ->capture_default_str()
+          ->check(in_range(1, 8));
+  app.add_option("--thin-weight", s.thin_weight,
+                 "the cross-entropy of the object's thin parts (legs, arms, barrels, wing tips: --thin-radius) weighs "
+                 "this many times a pixel's (1 = off)")
+      ->capture_default_str()
+      ->check(in_range(1.0, 100.0));
   app.add_option("--grad-clip", s.grad_clip, "clip the gradient norm (0 = off)")->capture_default_str()->check(non_negative());
   app.add_option("--size", s.net.size, "side of the letterboxed network input (a multiple of 2^stages)")
       ->capture_default_str()
@@ -98,8 +109,10 @@ std::function<int()> setup_train_seg(CLI::App& app) {
       ->capture_default_str()
       ->check(non_negative());
   app.add_flag("--json", o->json, "print the result as JSON on stdout");
-  return [o] {
+  return [o, thin_radius] {
     SegTrainSettings& s = o->s;
+    if (thin_radius->count() > 0 && s.thin_weight == 1.0)
+      throw InvalidInput("train seg: --thin-radius applies with --thin-weight above 1");
     s.time_limit_seconds = o->minutes * 60.0;
     s.net.encoder = parse_widths(o->encoder, "train seg: --encoder");
     s.net.decoder = parse_widths(o->decoder, "train seg: --decoder");

@@ -74,7 +74,25 @@ struct Texture {
   }
 };
 
+// The opening by the disc of radius r: what erosion keeps, dilated back.
+Mask opening(const Mask& m, int W, int H, int r) {
+  const auto d = disc(r);
+  return morph(morph(m, W, H, d, true), W, H, d, false);
+}
+
 }  // namespace
+
+Image thin_parts(const Image& mask, int radius) {
+  require(mask.channels == 1, "thin parts: the mask needs 1 channel, it has " + std::to_string(mask.channels));
+  require(radius >= 1, "thin parts: the radius must be >= 1 px");
+  const int W = mask.width, H = mask.height;
+  Mask obj(mask.data.size());
+  for (size_t i = 0; i < obj.size(); ++i) obj[i] = mask.data[i] > 0.5f;
+  const Mask opened = opening(obj, W, H, radius);
+  Image thin(W, H, 1);
+  for (size_t i = 0; i < obj.size(); ++i) thin.data[i] = obj[i] && !opened[i] ? 1.f : 0.f;
+  return thin;
+}
 
 MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64_t seed, float background) {
   s.validate();
@@ -116,8 +134,7 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
   Rng noise_rng(noise_seed);
 
   // 1. Thin parts: the residue of the opening, split into 8-connected parts, each dropped by its own coin.
-  const auto d = disc(radius);
-  const Mask opened = morph(morph(obj, W, H, d, true), W, H, d, false);
+  const Mask opened = opening(obj, W, H, radius);
   std::vector<int> label(n, -1);
   std::vector<size_t> stack;
   std::vector<std::vector<size_t>> parts;

@@ -43,6 +43,12 @@ struct MaskErrorResult {
   long eroded_pixels = 0;   ///< object pixels of the outline dropped
 };
 
+/// The thin parts of an object mask (1 channel): its pixels over 0.5 that a morphological opening by a disc of
+/// radius `radius` px removes (outside the image counts as background), as 1, every other pixel 0; the mask's size.
+/// The parts apply_mask_error drops, and those `train seg --thin-weight` stresses. InvalidInput for another channel
+/// count or radius < 1.
+Image thin_parts(const Image& mask, int radius);
+
 /// Applies a seeded segmentation error to an RGBA image in place (4 channels; the object is alpha > 0.5): thin parts,
 /// then the outline, then a blob. Dropped pixels get alpha 0 and RGB `background`, halo and blob pixels alpha 1 and a
 /// colour of a random base, gradient and noise,

@@ -65,12 +65,36 @@ double bce_with_logits_loss(const TensorT<T>& logits, const TensorT<T>& target, 
   });
 }
 
+template <typename T>
+double weighted_bce_with_logits_loss(const TensorT<T>& logits, const TensorT<T>& target, const TensorT<T>& weight,
+                                     TensorOut<T> grad) {
+  require(logits.size() == target.size() && logits.size() == weight.size() && logits.size() > 0,
+          "weighted_bce_with_logits_loss: logits " + shape_string(logits.shape) + ", targets " +
+              shape_string(target.shape) + " and weights " + shape_string(weight.shape) +
+              " must be non-empty and of equal size");
+  if (grad) grad->resize(logits.shape);
+  const double inv = 1.0 / static_cast<double>(logits.size());
+  double s = 0;
+  for (int64_t i = 0; i < logits.size(); ++i) {
+    const double z = static_cast<double>(logits[i]), y = static_cast<double>(target[i]);
+    const double w = static_cast<double>(weight[i]);
+    require(y >= 0.0 && y <= 1.0, "weighted_bce_with_logits_loss: targets must lie in [0, 1]");
+    require(w >= 0.0 && std::isfinite(w), "weighted_bce_with_logits_loss: weights must be finite and >= 0");
+    const double sig = z >= 0 ? 1.0 / (1.0 + std::exp(-z)) : std::exp(z) / (1.0 + std::exp(z));
+    s += w * (std::max(z, 0.0) - z * y + std::log1p(std::exp(-std::abs(z))));
+    if (grad) (*grad)[i] = static_cast<T>(w * (sig - y) * inv);
+  }
+  return s * inv;
+}
+
 #define SDFKIT_LOSS_INSTANTIATE(T)                                                                         \
   template double l1_loss<T>(const TensorT<T>&, const TensorT<T>&, TensorOut<T>);                           \
   template double l2_loss<T>(const TensorT<T>&, const TensorT<T>&, TensorOut<T>);                           \
   template double sdf_weighted_l1_loss<T>(const TensorT<T>&, const TensorT<T>&, TensorOut<T>,               \
                                           const SdfLossSettings&);                                         \
-  template double bce_with_logits_loss<T>(const TensorT<T>&, const TensorT<T>&, TensorOut<T>);
+  template double bce_with_logits_loss<T>(const TensorT<T>&, const TensorT<T>&, TensorOut<T>);             \
+  template double weighted_bce_with_logits_loss<T>(const TensorT<T>&, const TensorT<T>&, const TensorT<T>&, \
+                                                   TensorOut<T>);
 SDFKIT_LOSS_INSTANTIATE(float)
 SDFKIT_LOSS_INSTANTIATE(double)
 

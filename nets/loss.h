@@ -33,4 +33,11 @@ double sdf_weighted_l1_loss(const TensorT<T>& pred, const TensorT<T>& sdf, Tenso
 template <typename T>
 double bce_with_logits_loss(const TensorT<T>& logits, const TensorT<T>& target, TensorOut<T> grad);
 
+/// The same cross-entropy with a weight per element: mean( w (max(z, 0) - z y + log(1 + exp(-|z|))) ),
+/// d/dz = w (sigmoid(z) - y) / n. Weights finite and >= 0, of the logits' size (w = 1 everywhere gives
+/// bce_with_logits_loss).
+template <typename T>
+double weighted_bce_with_logits_loss(const TensorT<T>& logits, const TensorT<T>& target, const TensorT<T>& weight,
+                                     TensorOut<T> grad);
+
 }  // namespace sdfkit

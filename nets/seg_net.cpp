@@ -1,5 +1,6 @@
 #include "nets/seg_net.h"
 
+#include "camera/mask_error.h"
 #include "core/error.h"
 #include "nets/checkpoint.h"
 #include "nets/loss.h"
@@ -236,12 +237,13 @@ template class SegNetT<double>;
 // ----------------------------------------------------------------------------------------------- loss
 template <typename T>
 double segmentation_loss(const TensorT<T>& logits, const TensorT<T>& labels, double iou_weight, TensorOut<T> grad,
-                         double* bce) {
+                         double* bce, const TensorT<T>* bce_weight) {
   require(logits.shape == labels.shape && logits.rank() == 4 && logits.size() > 0,
           "segmentation loss: logits " + shape_string(logits.shape) + " and labels " + shape_string(labels.shape) +
               " differ");
   require(iou_weight >= 0 && std::isfinite(iou_weight), "segmentation loss: the IoU weight must be >= 0");
-  const double ce = bce_with_logits_loss(logits, labels, grad);
+  const double ce = bce_weight ? weighted_bce_with_logits_loss(logits, labels, *bce_weight, grad)
+                               : bce_with_logits_loss(logits, labels, grad);
   if (bce) *bce = ce;
   if (iou_weight == 0) return ce;
   const int64_t B = logits.dim(0), n = logits.item_size();
@@ -271,8 +273,32 @@ double segmentation_loss(const TensorT<T>& logits, const TensorT<T>& labels, dou
   return ce + iou_weight * (1.0 - iou_sum / static_cast<double>(B));
 }
 
-template double segmentation_loss(const TensorT<float>&, const TensorT<float>&, double, TensorOut<float>, double*);
-template double segmentation_loss(const TensorT<double>&, const TensorT<double>&, double, TensorOut<double>, double*);
+template double segmentation_loss(const TensorT<float>&, const TensorT<float>&, double, TensorOut<float>, double*,
+                                  const TensorT<float>*);
+template double segmentation_loss(const TensorT<double>&, const TensorT<double>&, double, TensorOut<double>, double*,
+                                  const TensorT<double>*);
+
+template <typename T>
+TensorT<T> thin_part_weights(const TensorT<T>& labels, double weight, int radius) {
+  require(labels.rank() == 4 && labels.dim(1) == 1 && labels.size() > 0,
+          "thin-part weights: labels must be B x 1 x H x W, not " + shape_string(labels.shape));
+  require(weight >= 1 && std::isfinite(weight), "thin-part weights: the weight must be >= 1");
+  require(radius >= 1, "thin-part weights: the radius must be >= 1 px");
+  const int64_t B = labels.dim(0), H = labels.dim(2), W = labels.dim(3);
+  TensorT<T> w(labels.shape);
+  Image label(static_cast<int>(W), static_cast<int>(H), 1);
+  for (int64_t b = 0; b < B; ++b) {
+    const T* y = labels.item(b);
+    for (int64_t i = 0; i < H * W; ++i) label.data[static_cast<size_t>(i)] = static_cast<float>(y[i]);
+    const Image thin = thin_parts(label, radius);
+    T* out = w.item(b);
+    for (int64_t i = 0; i < H * W; ++i) out[i] = thin.data[static_cast<size_t>(i)] > 0.5f ? static_cast<T>(weight) : T(1);
+  }
+  return w;
+}
+
+template TensorT<float> thin_part_weights(const TensorT<float>&, double, int);
+template TensorT<double> thin_part_weights(const TensorT<double>&, double, int);
 
 // ----------------------------------------------------------------------------------------------- letterbox
 Letterbox letterbox_geometry(int width, int height, int size) {

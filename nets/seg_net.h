@@ -111,9 +111,19 @@ using SegNet = SegNetT<float>;
 ///   + iou_weight x mean over items of (1 - soft IoU), soft IoU = sum(p y) / (sum(p + y - p y) + 1), p = sigmoid(z).
 /// The soft IoU weighs an item by its object, not by its pixel count, so that small objects count as much as large
 /// ones. `grad` (may be null) receives d loss / d logits. *bce (may be null) receives the cross-entropy term alone.
+/// `bce_weight` (may be null = 1 everywhere): a weight per pixel of the cross-entropy (weighted_bce_with_logits_loss,
+/// still divided by the pixel count), e.g. thin_part_weights; the soft IoU is not weighted.
 template <typename T>
 double segmentation_loss(const TensorT<T>& logits, const TensorT<T>& labels, double iou_weight, TensorOut<T> grad,
-                         double* bce = nullptr);
+                         double* bce = nullptr, const TensorT<T>* bce_weight = nullptr);
+
+/// Per-pixel cross-entropy weights that stress an object's thin parts: `weight` on the label's thin parts
+/// (camera/mask_error.h thin_parts of the pixels over 0.5, opening by a disc of `radius` px), 1 elsewhere. Labels
+/// B x 1 x S x S; the result has their shape. On the test photographs of docs/results/framing.md most pixels the
+/// segmenter misses are legs, arms, barrels and wing tips, and a missing part costs the reconstruction more than the
+/// same area taken in. InvalidInput for weight < 1 or radius < 1.
+template <typename T>
+TensorT<T> thin_part_weights(const TensorT<T>& labels, double weight, int radius);
 
 /// Where an image sits in its letterbox: scaled by `scale` to width x height pixels (longer side = size), its
 /// top-left corner at (x0, y0) of the size x size square; the rest replicates the edge pixels.

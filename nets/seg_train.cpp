@@ -44,12 +44,18 @@ std::vector<std::pair<int, int>> dataset_pairs(const Dataset& d) {
 
 Json settings_json(const SegTrainSettings& s, size_t backgrounds) {
   // What must not change across a resume (it would break the bit-exact continuation).
-  return {{"train_split", s.train_split},  {"backgrounds", s.backgrounds}, {"background_files", backgrounds},
+  Json j = {{"train_split", s.train_split},  {"backgrounds", s.backgrounds}, {"background_files", backgrounds},
           {"background_side", s.background_side}, {"composite", s.composite.to_json()}, {"steps", s.steps},
           {"batch", s.batch},              {"lr", s.lr},                   {"lr_min", s.lr_min},
           {"beta1", s.beta1},              {"weight_decay", s.weight_decay}, {"grad_clip", s.grad_clip},
           {"iou_weight", s.iou_weight},    {"max_shapes", s.max_shapes},   {"seed", s.seed},
           {"init", s.init}};
+  // Only when on, so that the training states of runs made before the option still resume.
+  if (s.thin_weight != 1.0) {
+    j["thin_weight"] = s.thin_weight;
+    j["thin_radius"] = s.thin_radius;
+  }
+  return j;
 }
 
 /// A composite as network input and label tensors (item 0 of 1 x 3 x S x S and 1 x 1 x S x S).
@@ -133,6 +139,8 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
           "train seg: steps, batch, val-every and val-items must be positive");
   require(s.lr > 0 && s.lr_min >= 0 && s.lr_min <= s.lr, "train seg: need 0 <= lr-min <= lr, lr > 0");
   require(s.iou_weight >= 0 && std::isfinite(s.iou_weight), "train seg: the IoU weight must be >= 0");
+  require(s.thin_weight >= 1 && std::isfinite(s.thin_weight), "train seg: the thin-part weight must be >= 1");
+  require(s.thin_radius >= 1 && s.thin_radius <= 8, "train seg: the thin-part radius must be in [1, 8] px");
   s.composite.validate();
   SegNet net(s.net, true);  // checks the architecture before any data is read
   const auto t0 = std::chrono::steady_clock::now();
@@ -254,7 +262,12 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
       to_tensors(smp, x, y);
       SegNet& r = *replicas[static_cast<size_t>(b)];
       const Tensor& z = r.forward(x, true);
-      item_loss[static_cast<size_t>(b)] = segmentation_loss(z, y, s.iou_weight, &dz);
+      if (s.thin_weight != 1.0) {
+        const Tensor w = thin_part_weights(y, s.thin_weight, s.thin_radius);
+        item_loss[static_cast<size_t>(b)] = segmentation_loss(z, y, s.iou_weight, &dz, nullptr, &w);
+      } else {
+        item_loss[static_cast<size_t>(b)] = segmentation_loss(z, y, s.iou_weight, &dz);
+      }
       for (float& v : dz.data) v *= static_cast<float>(inv_batch);
       r.backward(dz);
     });

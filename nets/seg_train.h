@@ -37,6 +37,10 @@ struct SegTrainSettings {
   double weight_decay = 0;
   double grad_clip = 5.0;   ///< gradient-norm clip (0 = off)
   double iou_weight = 0.5;  ///< weight of the soft-IoU term (0 = cross-entropy alone)
+  /// The cross-entropy of the label's thin parts (thin_part_weights: what an opening by a disc of thin_radius px
+  /// removes) weighs thin_weight times a pixel's; 1 = off. Validation losses stay unweighted.
+  double thin_weight = 1.0;
+  int thin_radius = 2;
   int val_every = 250;      ///< validate + checkpoint every N steps (and at the end / time limit)
   int val_items = 128;      ///< validation composites
   int max_shapes = 0;       ///< first N shapes of the training split (0 = all)

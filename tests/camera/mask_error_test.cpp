@@ -66,6 +66,52 @@ TEST_CASE("mask error: thin parts are what an opening removes, dropped ones beco
   CHECK(img.data == body_and_leg().data);
 }
 
+TEST_CASE("thin parts: the leg and the body's corners by the opening's closed form, the ones the mask error drops") {
+  Image mask(64, 64, 1, 0.0f);
+  const Image rgba = body_and_leg();
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) mask.at(x, y) = rgba.at(x, y, 3);
+  // Radius 1 (the 5-pixel cross): erosion keeps the body's inside [11, 33)^2, the two bottom-row pixels above the leg
+  // (x 20-21, y 33: their neighbour below is the leg) and no leg pixel (2 px wide); dilating that back gives the body
+  // without its 4 corner pixels, and the leg's first row. So the thin parts are the leg's rows 35-55 and the corners.
+  const Image t1 = thin_parts(mask, 1);
+  long n1 = 0;
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      const bool leg = y >= 35 && y < 56 && x >= 20 && x < 22;
+      const bool corner = (x == 10 || x == 33) && (y == 10 || y == 33);
+      CAPTURE(x);
+      CAPTURE(y);
+      CHECK((t1.at(x, y) == 1.0f) == (leg || corner));
+      n1 += t1.at(x, y) == 1.0f;
+    }
+  CHECK(n1 == 21 * 2 + 4);
+  // A larger disc (radius 3) removes more of the corners, never the body's middle, and the leg's rows 35-55 still
+  // (the eroded pixels above the leg, x 20-21 at y 31, reach row 34 only).
+  const Image t3 = thin_parts(mask, 3);
+  for (int y = 35; y < 56; ++y)
+    for (int x = 20; x < 22; ++x) CHECK(t3.at(x, y) == 1.0f);
+  for (int y = 14; y < 30; ++y)
+    for (int x = 14; x < 30; ++x) CHECK(t3.at(x, y) == 0.0f);
+  long n3 = 0;
+  for (const float v : t3.data) n3 += v == 1.0f;
+  CHECK(n3 > n1);
+  // The mask error drops exactly these pixels when it drops every thin part with the same radius.
+  MaskErrorSettings st;
+  st.blob_prob = 0;
+  st.edge_prob = 0;
+  st.thin_drop = 1;
+  st.thin_radius_max = 1;
+  Image img = body_and_leg();
+  apply_mask_error(img, st, 3, 1.0f);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) CHECK((mask.at(x, y) > 0.5f && img.at(x, y, 3) < 0.5f) == (t1.at(x, y) == 1.0f));
+  // An empty mask has no thin part; other channel counts and radii are refused.
+  for (const float v : thin_parts(Image(8, 8, 1, 0.0f), 2).data) CHECK(v == 0.0f);
+  CHECK_THROWS_AS(thin_parts(rgba, 1), InvalidInput);
+  CHECK_THROWS_AS(thin_parts(mask, 0), InvalidInput);
+}
+
 TEST_CASE("mask error: an object made only of thin parts is kept whole (keep_min), an empty image unchanged") {
   MaskErrorSettings st;
   st.blob_prob = 0;

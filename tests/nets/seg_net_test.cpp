@@ -1,5 +1,6 @@
 #include "nets/seg_net.h"
 
+#include "camera/mask_error.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "nets/checkpoint.h"
@@ -153,6 +154,59 @@ TEST_CASE("SegNet: the segmentation loss (BCE + soft IoU) matches closed forms a
   CHECK(segmentation_loss<double>(right, labels, 0.0, nullptr) < 1e-12);
   CHECK(segmentation_loss<double>(wrong, labels, 1.0, nullptr) > 30);
   CHECK_THROWS_AS(segmentation_loss<double>(right, TensorD({1, 1, 2, 3}), 1.0, nullptr), InvalidInput);
+}
+
+TEST_CASE("SegNet: the thin-part weighted loss matches the weighted sum and central differences") {
+  TensorD z = test::random_tensor({2, 1, 8, 8}, 31, -3, 3);
+  TensorD t({2, 1, 8, 8});
+  // Item 0: a 4 x 4 block with a 1-px tail 3 px long; item 1: nothing.
+  for (int y = 1; y < 5; ++y)
+    for (int x = 1; x < 5; ++x) t[y * 8 + x] = 1;
+  for (int y = 5; y < 8; ++y) t[y * 8 + 2] = 1;
+  const TensorD w = thin_part_weights(t, 3.0, 1);
+  // The weights are 3 exactly on camera/mask_error.h's thin parts of each item (closed forms in its test), 1
+  // elsewhere; the tail's end is among them and the block's middle is not.
+  for (int b = 0; b < 2; ++b) {
+    Image label(8, 8, 1);
+    for (int i = 0; i < 64; ++i) label.data[static_cast<size_t>(i)] = static_cast<float>(t[b * 64 + i]);
+    const Image thin = thin_parts(label, 1);
+    for (int i = 0; i < 64; ++i) CHECK(w[b * 64 + i] == (thin.data[static_cast<size_t>(i)] == 1.0f ? 3.0 : 1.0));
+  }
+  CHECK(w[7 * 8 + 2] == 3.0);
+  CHECK(w[2 * 8 + 2] == 1.0);
+  // Weights of 1 give the unweighted loss exactly; the weighted BCE is the weighted mean by hand.
+  TensorD ones({2, 1, 8, 8}), g0, g1;
+  ones.data.assign(ones.data.size(), 1.0);
+  CHECK(segmentation_loss(z, t, 0.5, &g0, nullptr, &ones) == segmentation_loss(z, t, 0.5, &g1));
+  CHECK(g0.data == g1.data);
+  double by_hand = 0;
+  for (int64_t i = 0; i < z.size(); ++i) {
+    const double p = 1 / (1 + std::exp(-z[i]));
+    by_hand -= w[i] * (t[i] * std::log(p) + (1 - t[i]) * std::log(1 - p));
+  }
+  by_hand /= static_cast<double>(z.size());
+  double bce = 0;
+  TensorD g;
+  const double l = segmentation_loss(z, t, 0.5, &g, &bce, &w);
+  CHECK(bce == doctest::Approx(by_hand).epsilon(1e-12));
+  // The soft-IoU term is not weighted.
+  const double iou_term = segmentation_loss<double>(z, t, 0.5, nullptr) - bce_with_logits_loss<double>(z, t, nullptr);
+  CHECK(l == doctest::Approx(bce + iou_term).epsilon(1e-12));
+  std::vector<size_t> idx(static_cast<size_t>(z.size()));
+  for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
+  std::vector<double> a(g.data.begin(), g.data.end());
+  const auto num = test::numeric_gradient([&] { return segmentation_loss<double>(z, t, 0.5, nullptr, nullptr, &w); },
+                                          z.ptr(), idx);
+  CHECK(test::relative_error(a, num) < 1e-7);
+  // Bad weights and settings are refused.
+  TensorD negative = ones;
+  negative[3] = -1;
+  CHECK_THROWS_AS(segmentation_loss<double>(z, t, 0.5, nullptr, nullptr, &negative), InvalidInput);
+  const TensorD short_weights({1, 1, 8, 8});
+  CHECK_THROWS_AS(segmentation_loss<double>(z, t, 0.5, nullptr, nullptr, &short_weights), InvalidInput);
+  CHECK_THROWS_AS(thin_part_weights(t, 0.5, 1), InvalidInput);
+  CHECK_THROWS_AS(thin_part_weights(t, 2.0, 0), InvalidInput);
+  CHECK_THROWS_AS(thin_part_weights(TensorD({2, 2, 8, 8}), 2.0, 1), InvalidInput);
 }
 
 TEST_CASE("SegNet letterbox: geometry, edge replication, and the way back reproduces affine ramps") {

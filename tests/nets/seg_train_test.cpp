@@ -280,6 +280,41 @@ TEST_CASE("SegTrain: a resumed run gives the bytes of an uninterrupted one, for 
   }
 }
 
+TEST_CASE("SegTrain: the thin-part weight changes the training, is recorded only when on, and must match to resume") {
+  const fs::path root = make_seg_dataset("seg_train_thin");
+  SegTrainSettings plain = tiny_run(root, "plain.ckpt");
+  train_seg(plain);
+  SegTrainSettings thin = tiny_run(root, "thin.ckpt");
+  thin.thin_weight = 4;
+  thin.thin_radius = 2;
+  train_seg(thin);
+  SegTrainSettings again = thin;
+  again.out = (root / "thin2.ckpt").string();
+  train_seg(again);
+  const auto plain_params = load_checkpoint(plain.out).block("params");
+  const auto thin_params = load_checkpoint(thin.out).block("params");
+  CHECK(thin_params != plain_params);
+  CHECK(load_checkpoint(again.out).block("params") == thin_params);
+  // The resumable state records the setting only when it is on (states written before it existed still resume).
+  const Json plain_settings = load_checkpoint(plain.out + ".train.ckpt").header.at("settings");
+  const Json thin_settings = load_checkpoint(thin.out + ".train.ckpt").header.at("settings");
+  CHECK(!plain_settings.contains("thin_weight"));
+  CHECK(thin_settings.at("thin_weight").get<double>() == 4.0);
+  CHECK(thin_settings.at("thin_radius").get<int>() == 2);
+  // Resuming with another weight is refused; out-of-range settings too.
+  thin.resume = true;
+  thin.steps = 8;
+  thin.thin_weight = 2;
+  CHECK_THROWS_AS(train_seg(thin), InvalidInput);
+  SegTrainSettings bad = tiny_run(root, "bad.ckpt");
+  bad.thin_weight = 0.5;
+  CHECK_THROWS_AS(train_seg(bad), InvalidInput);
+  bad.thin_weight = 2;
+  bad.thin_radius = 0;
+  CHECK_THROWS_AS(train_seg(bad), InvalidInput);
+  CHECK(!fs::exists(bad.out));
+}
+
 TEST_CASE("SegTrain: --init adds the fine branch to a trained coarse model, and refuses other architectures") {
   const fs::path root = make_seg_dataset("seg_train_fine");
   SegTrainSettings coarse = tiny_run(root, "coarse.ckpt");
@@ -334,7 +369,19 @@ TEST_CASE("SegTrain CLI: help, and bad inputs fail with one line naming the file
   const Json j = Json::parse(ok.out);
   CHECK(j.at("steps").get<long>() == 2);
   CHECK(fs::exists(root / "m.ckpt"));
-  for (const char* flag : {"--clutter 1.5", "--clutter -0.1", "--clutter-shapes 0"}) {
+  // --thin-radius alone does not apply; with --thin-weight the run trains.
+  const std::string base = "train seg --data " + root.string() + " --backgrounds " + (root / "bg").string() +
+                           " --val-split \"\" --steps 1 --batch 2 --size 32 --encoder 4,8 --decoder 8 --val-items 2 ";
+  const test::CliRun lone = test::run_sdfkit(base + "--thin-radius 2 -o " + (root / "t.ckpt").string());
+  CHECK(lone.code == 1);
+  CHECK(lone.err.find("--thin-radius applies with --thin-weight") != std::string::npos);
+  CHECK(!fs::exists(root / "t.ckpt"));
+  const test::CliRun weighted =
+      test::run_sdfkit(base + "--thin-weight 4 --thin-radius 2 -o " + (root / "t.ckpt").string());
+  CHECK(weighted.code == 0);
+  CHECK(fs::exists(root / "t.ckpt"));
+  for (const char* flag : {"--clutter 1.5", "--clutter -0.1", "--clutter-shapes 0", "--thin-weight 0.5",
+                           "--thin-radius 9"}) {
     const test::CliRun r = test::run_sdfkit("train seg --data " + root.string() + " -o " + (root / "c.ckpt").string() +
                                             " --steps 1 " + flag);
     CHECK(r.code != 0);
