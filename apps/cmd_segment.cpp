@@ -80,11 +80,13 @@ std::function<int()> setup_segment(CLI::App& app) {
   app.add_option("--truth", o->truth,
                  "score the masks: a folder of reference masks <name>.png or <name>.mask.png (their alpha when they "
                  "have one, else their luminance; the input's size), or for one image a mask file. Prints each "
-                 "image's mask IoU (pixels over 0.5) and their mean; an image with no object found counts as 0");
+                 "image's mask IoU (pixels over 0.5), the share of the reference's object it misses and the area "
+                 "it adds outside it (as a share of the object), and the mean IoU; an image with no object found "
+                 "counts as 0");
   app.add_option("-j,--jobs", o->jobs, "images segmented in parallel")->capture_default_str()->check(positive());
   app.add_flag("--json", o->json,
                "print {\"images\": [per image: input, mask, mask_source, object_box, segmenter_zooms, segmenter_scan, "
-               "warnings, iou "
+               "warnings, iou, missed, extra "
                "or error], \"summary\": {...}} as JSON");
   return [o, &app] {
     const std::vector<std::string> inputs = collect_inputs(o->input);
@@ -141,10 +143,12 @@ std::function<int()> setup_segment(CLI::App& app) {
           std::ostringstream line;
           line << in << " -> " << outs.paths[i] << " (" << f.mask_source << ", object " << b.w << "x" << b.h << " px";
           if (!o->truth.empty()) {
-            const double iou = mask_iou(f.mask, truth);
-            j["iou"] = iou;
-            char text[32];
-            std::snprintf(text, sizeof text, "%.3f", iou);
+            const MaskAgreement a = mask_agreement(f.mask, truth);
+            j["iou"] = a.iou;
+            j["missed"] = a.missed;
+            j["extra"] = a.extra;
+            char text[96];
+            std::snprintf(text, sizeof text, "%.3f (missed %.3f, extra %.3f of the object)", a.iou, a.missed, a.extra);
             line << ", mask IoU " << text;
           }
           line << ")";

@@ -479,19 +479,30 @@ Image plain_background_mask(const Image& rgb, const float background[3], double 
   return out;
 }
 
-double mask_iou(const Image& a, const Image& b) {
-  if (a.width != b.width || a.height != b.height)
-    throw InvalidInput("mask_iou: masks of different sizes (" + std::to_string(a.width) + "x" + std::to_string(a.height) +
-                       " and " + std::to_string(b.width) + "x" + std::to_string(b.height) + ")");
-  long both = 0, either = 0;
-  for (int y = 0; y < a.height; ++y)
-    for (int x = 0; x < a.width; ++x) {
-      const bool in_a = mask_value(a, x, y) > 0.5f, in_b = mask_value(b, x, y) > 0.5f;
-      both += in_a && in_b;
-      either += in_a || in_b;
+MaskAgreement mask_agreement(const Image& mask, const Image& truth) {
+  if (mask.width != truth.width || mask.height != truth.height)
+    throw InvalidInput("mask_iou: masks of different sizes (" + std::to_string(mask.width) + "x" +
+                       std::to_string(mask.height) + " and " + std::to_string(truth.width) + "x" +
+                       std::to_string(truth.height) + ")");
+  long both = 0, only_mask = 0, only_truth = 0;
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = 0; x < mask.width; ++x) {
+      const bool in_m = mask_value(mask, x, y) > 0.5f, in_t = mask_value(truth, x, y) > 0.5f;
+      both += in_m && in_t;
+      only_mask += in_m && !in_t;
+      only_truth += in_t && !in_m;
     }
-  return either == 0 ? 1.0 : static_cast<double>(both) / static_cast<double>(either);
+  MaskAgreement a;
+  const long either = both + only_mask + only_truth, truth_count = both + only_truth;
+  a.iou = either == 0 ? 1.0 : static_cast<double>(both) / static_cast<double>(either);
+  if (truth_count > 0) {
+    a.missed = static_cast<double>(only_truth) / static_cast<double>(truth_count);
+    a.extra = static_cast<double>(only_mask) / static_cast<double>(truth_count);
+  }
+  return a;
 }
+
+double mask_iou(const Image& a, const Image& b) { return mask_agreement(a, b).iou; }
 
 Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter, const Image& rgb, int rounds,
                         double fill, const std::string& what, int* zooms, bool windows, SegmenterScan* scan,

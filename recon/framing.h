@@ -177,6 +177,14 @@ FramedInput frame_input(const Image& image, const Image* mask, const FramingSett
 /// InvalidInput when the sizes differ.
 double mask_iou(const Image& a, const Image& b);
 
+/// How a mask agrees with a reference mask of the same size (pixels over 0.5 as mask_iou reads them): their IoU,
+/// the share of the reference's object the mask misses (|truth \ mask| / |truth|) and the area it adds outside it
+/// (|mask \ truth| / |truth|); both 0 when the reference has no object pixel. InvalidInput when the sizes differ.
+struct MaskAgreement {
+  double iou = 1, missed = 0, extra = 0;
+};
+MaskAgreement mask_agreement(const Image& mask, const Image& truth);
+
 /// A square crop of an input image: [x0, x0 + side] x [y0, y0 + side] in its continuous pixel coordinates.
 struct SquareCrop {
   double x0 = 0, y0 = 0, side = 0;

@@ -76,14 +76,20 @@ TEST_CASE("segment: the mask recon uses, scored against the exact mask") {
   // The mask scored against itself is a perfect match; against the image's complement it is disjoint.
   const test::CliRun self = run("segment " + in + " -o " + (dir / "again.png").string() + " --truth " + mask + " --json");
   REQUIRE_MESSAGE(self.code == 0, self.err);
-  CHECK(Json::parse(self.out)["images"][0]["iou"].get<double>() == doctest::Approx(1.0));
+  const Json self_item = Json::parse(self.out)["images"][0];
+  CHECK(self_item["iou"].get<double>() == doctest::Approx(1.0));
+  CHECK(self_item["missed"].get<double>() == 0.0);
+  CHECK(self_item["extra"].get<double>() == 0.0);
   Image inverse = m;
   for (float& v : inverse.data) v = 1.0f - v;
   const std::string inv = (dir / "inverse.png").string();
   write_image(inv, inverse);
   const test::CliRun none = run("segment " + in + " -o " + (dir / "again.png").string() + " --truth " + inv + " --json");
   REQUIRE_MESSAGE(none.code == 0, none.err);
-  CHECK(Json::parse(none.out)["images"][0]["iou"].get<double>() == doctest::Approx(0.0));
+  const Json none_item = Json::parse(none.out)["images"][0];
+  CHECK(none_item["iou"].get<double>() == doctest::Approx(0.0));
+  CHECK(none_item["missed"].get<double>() == doctest::Approx(1.0));  // the reference is all the mask leaves out
+  CHECK(none_item["extra"].get<double>() > 0.0);
 }
 
 TEST_CASE("segment: a folder reports each failed image, scores it 0 and goes on") {

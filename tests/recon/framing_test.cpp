@@ -531,4 +531,19 @@ TEST_CASE("mask_iou: overlapping rectangles in alpha and grey masks, closed form
   CHECK(mask_iou(a, b) == doctest::Approx(7.0 / 56.0));
   CHECK(mask_iou(Image(4, 4, 1, 0.0f), Image(4, 4, 1, 0.0f)) == 1.0);  // no object in either: they agree
   CHECK_THROWS_AS(mask_iou(a, Image(8, 8, 1, 0.0f)), InvalidInput);
+  // mask_agreement: a against b (now 31 px, 7 shared): a misses 24 of b's 31 pixels and adds 25 outside them.
+  const MaskAgreement m = mask_agreement(a, b);
+  CHECK(m.iou == doctest::Approx(7.0 / 56.0));
+  CHECK(m.missed == doctest::Approx(24.0 / 31.0));
+  CHECK(m.extra == doctest::Approx(25.0 / 31.0));
+  const MaskAgreement self = mask_agreement(b, b);
+  CHECK(self.iou == 1.0);
+  CHECK(self.missed == 0.0);
+  CHECK(self.extra == 0.0);
+  // Against a reference without object: nothing to miss, and no share to take.
+  const MaskAgreement empty = mask_agreement(a, Image(16, 8, 1, 0.0f));
+  CHECK(empty.iou == 0.0);
+  CHECK(empty.missed == 0.0);
+  CHECK(empty.extra == 0.0);
+  CHECK_THROWS_AS(mask_agreement(a, Image(8, 8, 1, 0.0f)), InvalidInput);
 }
