@@ -80,18 +80,33 @@ Mask opening(const Mask& m, int W, int H, int r) {
   return morph(morph(m, W, H, d, true), W, H, d, false);
 }
 
+// A 1-channel mask's pixels over 0.5.
+Mask over_half(const Image& mask) {
+  Mask m(mask.data.size());
+  for (size_t i = 0; i < m.size(); ++i) m[i] = mask.data[i] > 0.5f;
+  return m;
+}
+
 }  // namespace
 
 Image thin_parts(const Image& mask, int radius) {
   require(mask.channels == 1, "thin parts: the mask needs 1 channel, it has " + std::to_string(mask.channels));
   require(radius >= 1, "thin parts: the radius must be >= 1 px");
   const int W = mask.width, H = mask.height;
-  Mask obj(mask.data.size());
-  for (size_t i = 0; i < obj.size(); ++i) obj[i] = mask.data[i] > 0.5f;
+  const Mask obj = over_half(mask);
   const Mask opened = opening(obj, W, H, radius);
   Image thin(W, H, 1);
   for (size_t i = 0; i < obj.size(); ++i) thin.data[i] = obj[i] && !opened[i] ? 1.f : 0.f;
   return thin;
+}
+
+Image dilate_mask(const Image& mask, int radius) {
+  require(mask.channels == 1, "dilate mask: the mask needs 1 channel, it has " + std::to_string(mask.channels));
+  require(radius >= 0, "dilate mask: the radius must be >= 0 px");
+  const Mask grown = morph(over_half(mask), mask.width, mask.height, disc(radius), false);
+  Image out(mask.width, mask.height, 1);
+  for (size_t i = 0; i < grown.size(); ++i) out.data[i] = grown[i] ? 1.f : 0.f;
+  return out;
 }
 
 MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64_t seed, float background) {

@@ -49,6 +49,11 @@ struct MaskErrorResult {
 /// count or radius < 1.
 Image thin_parts(const Image& mask, int radius);
 
+/// The pixels within `radius` px (Euclidean, between pixel centres) of a pixel of `mask` (1 channel) over 0.5, as 1,
+/// every other pixel 0: the dilation by a disc of that radius; radius 0 gives the mask's pixels over 0.5. InvalidInput
+/// for another channel count or a negative radius.
+Image dilate_mask(const Image& mask, int radius);
+
 /// Applies a seeded segmentation error to an RGBA image in place (4 channels; the object is alpha > 0.5): thin parts,
 /// then the outline, then a blob. Dropped pixels get alpha 0 and RGB `background`, halo and blob pixels alpha 1 and a
 /// colour of a random base, gradient and noise,

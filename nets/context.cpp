@@ -38,24 +38,11 @@ void keep_band(Eigen::Ref<Eigen::VectorXf> image, int channels, const Eigen::Ref
   require(static_cast<Eigen::Index>(S) * S == n && channels > 0 && image.size() == channels * n,
           "keep_band: the image and the mask must be square images of one size");
   if (band == 0) return;
-  // Every pixel within the disc of radius `band` about a mask pixel is kept (brute force: the band is a few pixels).
-  std::vector<char> keep(static_cast<size_t>(n), 0);
-  const long b2 = static_cast<long>(band) * band;
-  for (int y = 0; y < S; ++y)
-    for (int x = 0; x < S; ++x) {
-      if (mask[static_cast<Eigen::Index>(y) * S + x] <= 0.5f) continue;
-      for (int dy = -band; dy <= band; ++dy) {
-        const int yy = y + dy;
-        if (yy < 0 || yy >= S) continue;
-        for (int dx = -band; dx <= band; ++dx) {
-          const int xx = x + dx;
-          if (xx < 0 || xx >= S || static_cast<long>(dx) * dx + static_cast<long>(dy) * dy > b2) continue;
-          keep[static_cast<size_t>(yy) * S + xx] = 1;
-        }
-      }
-    }
+  Image object(S, S, 1);
+  for (Eigen::Index i = 0; i < n; ++i) object.data[static_cast<size_t>(i)] = mask[i];
+  const Image keep = dilate_mask(object, band);
   for (Eigen::Index i = 0; i < n; ++i)
-    if (!keep[static_cast<size_t>(i)])
+    if (keep.data[static_cast<size_t>(i)] == 0.f)
       for (int c = 0; c < channels; ++c) image[c * n + i] = background;
 }
 

@@ -262,12 +262,9 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
       to_tensors(smp, x, y);
       SegNet& r = *replicas[static_cast<size_t>(b)];
       const Tensor& z = r.forward(x, true);
-      if (s.thin_weight != 1.0) {
-        const Tensor w = thin_part_weights(y, s.thin_weight, s.thin_radius);
-        item_loss[static_cast<size_t>(b)] = segmentation_loss(z, y, s.iou_weight, &dz, nullptr, &w);
-      } else {
-        item_loss[static_cast<size_t>(b)] = segmentation_loss(z, y, s.iou_weight, &dz);
-      }
+      const bool thin = s.thin_weight != 1.0;
+      const Tensor w = thin ? thin_part_weights(y, s.thin_weight, s.thin_radius) : Tensor();
+      item_loss[static_cast<size_t>(b)] = segmentation_loss(z, y, s.iou_weight, &dz, nullptr, thin ? &w : nullptr);
       for (float& v : dz.data) v *= static_cast<float>(inv_batch);
       r.backward(dz);
     });
