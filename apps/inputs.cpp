@@ -211,6 +211,12 @@ void add_mask_error_options(CLI::App& app, MaskErrorAugmentSettings& settings) {
                  "blobs only)")
       ->capture_default_str()
       ->check(in_range(0.0, 1.0));
+  app.add_option("--mask-error-cut", settings.error.cut_prob,
+                 "with --aug-mask-error: probability of also cutting off one end of the object (left, top, right or "
+                 "bottom, the line tilted by up to 15 degrees, 5-30% of the object's extent deep), as a mask that "
+                 "misses a chair's legs or a lamp's base; 0 = off")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
 }
 
 }  // namespace sdfkit::app

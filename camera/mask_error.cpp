@@ -19,6 +19,10 @@ void MaskErrorSettings::validate() const {
   require(keep_min >= 0 && keep_min <= 1, "mask error: keep_min must be in [0, 1]");
   require(edge_prob >= 0 && edge_prob <= 1 && edge_halo >= 0 && edge_halo <= 1,
           "mask error: edge_prob and edge_halo must be in [0, 1]");
+  require(cut_prob >= 0 && cut_prob <= 1, "mask error: cut_prob must be in [0, 1]");
+  require(cut_depth_min > 0 && cut_depth_min <= cut_depth_max && cut_depth_max < 1,
+          "mask error: need 0 < cut_depth_min <= cut_depth_max < 1");
+  require(cut_tilt_deg >= 0 && cut_tilt_deg <= 45, "mask error: cut_tilt_deg must be in [0, 45]");
 }
 
 namespace {
@@ -116,19 +120,7 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
   const size_t n = static_cast<size_t>(W) * H;
   MaskErrorResult res;
   Mask obj(n);
-  long count = 0;
-  int x0 = W, y0 = H, x1 = -1, y1 = -1;
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const bool in = rgba.at(x, y, 3) > 0.5f;
-      obj[static_cast<size_t>(y) * W + x] = in;
-      if (!in) continue;
-      ++count;
-      x0 = std::min(x0, x);
-      x1 = std::max(x1, x);
-      y0 = std::min(y0, y);
-      y1 = std::max(y1, y);
-    }
+  for (size_t i = 0; i < n; ++i) obj[i] = rgba.data[i * 4 + 3] > 0.5f;
   // Every draw is made in a fixed order whatever the image, so the choices depend on the seed only.
   Rng rng(seed);
   const int radius = 1 + static_cast<int>(rng.below(static_cast<uint64_t>(s.thin_radius_max)));
@@ -145,6 +137,59 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
   const bool halo = rng.uniform() < s.edge_halo;
   const int edge_radius = 1 + static_cast<int>(rng.below(2));
   halo_texture.draw(rng);
+  // The end cut's draws come after all the others (cut_prob 0 leaves every other choice as before it existed).
+  const bool cut = rng.uniform() < s.cut_prob;
+  const int cut_end = static_cast<int>(rng.below(4));
+  const double cut_tilt = rng.uniform(-1.0, 1.0) * s.cut_tilt_deg * M_PI / 180.0;
+  const double cut_depth = rng.uniform(s.cut_depth_min, s.cut_depth_max);
+  auto drop_pixel = [&](size_t p) {
+    obj[p] = 0;
+    const int px = static_cast<int>(p % static_cast<size_t>(W)), py = static_cast<int>(p / static_cast<size_t>(W));
+    for (int c = 0; c < 3; ++c) rgba.at(px, py, c) = background;
+    rgba.at(px, py, 3) = 0.0f;
+  };
+
+  // 0. An end cut off: the object pixels whose centres lie beyond the line at cut_depth of the object's extent along
+  //    the end's (tilted) direction, unless that would leave less than keep_min of the object.
+  if (cut) {
+    const double angle = cut_end * M_PI / 2 + cut_tilt;  // 0 = right, then bottom, left, top (image y down)
+    const double dx = std::cos(angle), dy = std::sin(angle);
+    double lo = 1e300, hi = -1e300;
+    long total = 0;
+    for (size_t i = 0; i < n; ++i)
+      if (obj[i]) {
+        const double t = (static_cast<double>(i % static_cast<size_t>(W)) + 0.5) * dx +
+                         (static_cast<double>(i / static_cast<size_t>(W)) + 0.5) * dy;
+        lo = std::min(lo, t);
+        hi = std::max(hi, t);
+        ++total;
+      }
+    if (total > 0) {
+      const double line = hi - cut_depth * (hi - lo);
+      std::vector<size_t> beyond;
+      for (size_t i = 0; i < n; ++i)
+        if (obj[i] && (static_cast<double>(i % static_cast<size_t>(W)) + 0.5) * dx +
+                              (static_cast<double>(i / static_cast<size_t>(W)) + 0.5) * dy > line)
+          beyond.push_back(i);
+      if (static_cast<double>(total - static_cast<long>(beyond.size())) >= s.keep_min * static_cast<double>(total)) {
+        for (const size_t p : beyond) drop_pixel(p);
+        res.cut_pixels = static_cast<long>(beyond.size());
+      }
+    }
+  }
+
+  // The object's pixel count and box, after the cut.
+  long count = 0;
+  int x0 = W, y0 = H, x1 = -1, y1 = -1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (!obj[static_cast<size_t>(y) * W + x]) continue;
+      ++count;
+      x0 = std::min(x0, x);
+      x1 = std::max(x1, x);
+      y0 = std::min(y0, y);
+      y1 = std::max(y1, y);
+    }
   if (count == 0) return res;
   Rng noise_rng(noise_seed);
 
@@ -188,12 +233,7 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
     drop.clear();
     res.dropped_parts = 0;
   }
-  for (const size_t p : drop) {
-    obj[p] = 0;
-    const int px = static_cast<int>(p % static_cast<size_t>(W)), py = static_cast<int>(p / static_cast<size_t>(W));
-    for (int c = 0; c < 3; ++c) rgba.at(px, py, c) = background;
-    rgba.at(px, py, 3) = 0.0f;
-  }
+  for (const size_t p : drop) drop_pixel(p);
   res.dropped_pixels = static_cast<long>(drop.size());
 
   // 2. The outline moved by a disc: outward, a textured halo where the dilation reaches outside the object; inward,

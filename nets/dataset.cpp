@@ -608,14 +608,20 @@ void occlude_images(MatrixXfR& images, MatrixXfR& masks, const OcclusionAugmentS
 }
 
 Json MaskErrorAugmentSettings::to_json() const {
-  return {{"prob", prob},
-          {"thin_radius_max", error.thin_radius_max},
-          {"thin_drop", error.thin_drop},
-          {"blob_prob", error.blob_prob},
-          {"blob_size", {error.blob_size_min, error.blob_size_max}},
-          {"keep_min", error.keep_min},
-          {"edge_prob", error.edge_prob},
-          {"edge_halo", error.edge_halo}};
+  Json j = {{"prob", prob},
+            {"thin_radius_max", error.thin_radius_max},
+            {"thin_drop", error.thin_drop},
+            {"blob_prob", error.blob_prob},
+            {"blob_size", {error.blob_size_min, error.blob_size_max}},
+            {"keep_min", error.keep_min},
+            {"edge_prob", error.edge_prob},
+            {"edge_halo", error.edge_halo}};
+  // Recorded only when on, so that the states of runs made before the end cut existed still resume.
+  if (error.cut_prob > 0)
+    j["cut"] = {{"prob", error.cut_prob},
+                {"depth", {error.cut_depth_min, error.cut_depth_max}},
+                {"tilt_deg", error.cut_tilt_deg}};
+  return j;
 }
 
 void MaskErrorAugmentSettings::validate() const {

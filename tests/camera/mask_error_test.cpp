@@ -242,6 +242,72 @@ TEST_CASE("mask error: the outline moves by at most 2 px, a textured halo outwar
   CHECK(erosions > 0);
 }
 
+TEST_CASE("mask error: the end cut drops the rows or columns beyond a line across one end, as deep as drawn") {
+  // The body alone (no leg, no thin parts dropped, no outline or blob): a 24 x 24 square whose pixel centres span
+  // 10.5-33.5 along both axes. Without tilt the cut at depth d drops the k = floor(23 d) + 1 outermost rows or
+  // columns of one end (d in [0.05, 0.3]: k in [2, 7]), and what is left is a rectangle.
+  Image square(64, 64, 4, 0.0f);
+  for (int y = 10; y < 34; ++y)
+    for (int x = 10; x < 34; ++x) {
+      for (int c = 0; c < 3; ++c) square.at(x, y, c) = 0.4f;
+      square.at(x, y, 3) = 1.0f;
+    }
+  MaskErrorSettings st;
+  st.blob_prob = 0;
+  st.edge_prob = 0;
+  st.thin_drop = 0;
+  st.cut_prob = 1;
+  st.cut_tilt_deg = 0;
+  int ends[4] = {0, 0, 0, 0};  // left, top, right, bottom
+  for (uint64_t seed = 0; seed < 40; ++seed) {
+    CAPTURE(seed);
+    Image img = square;
+    const MaskErrorResult r = apply_mask_error(img, st, seed, 1.0f);
+    int x0 = 64, y0 = 64, x1 = -1, y1 = -1;
+    long left = 0;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        if (!object(img, x, y)) {
+          if (object(square, x, y))
+            for (int c = 0; c < 3; ++c) CHECK(img.at(x, y, c) == 1.0f);
+          continue;
+        }
+        ++left;
+        x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+      }
+    CHECK(left == static_cast<long>(x1 - x0 + 1) * (y1 - y0 + 1));  // a rectangle
+    const int cut[4] = {x0 - 10, y0 - 10, 33 - x1, 33 - y1};
+    int sides = 0;
+    for (int e = 0; e < 4; ++e)
+      if (cut[e] != 0) {
+        ++sides;
+        ++ends[e];
+        CHECK(cut[e] >= 2);
+        CHECK(cut[e] <= 7);
+        CHECK(r.cut_pixels == 24L * cut[e]);
+      }
+    CHECK(sides == 1);
+    CHECK(r.dropped_pixels == 0);
+  }
+  for (int e = 0; e < 4; ++e) CHECK(ends[e] > 0);
+
+  // Tilted by up to 15 degrees at depth 0.25, the line cuts a trapezoid off a corner's side: 97-144 px of the
+  // square (3-6 of its rows or columns' worth; the bounds below leave room for the pixel grid). keep_min refuses a
+  // cut that would leave too little.
+  st.cut_tilt_deg = 15;
+  st.cut_depth_min = st.cut_depth_max = 0.25;
+  for (uint64_t seed = 0; seed < 20; ++seed) {
+    Image img = square;
+    const MaskErrorResult r = apply_mask_error(img, st, seed, 1.0f);
+    CHECK(r.cut_pixels >= 24 * 3);
+    CHECK(r.cut_pixels <= 24 * 10);
+  }
+  st.keep_min = 0.9;
+  Image img = square;
+  CHECK(apply_mask_error(img, st, 3, 1.0f).cut_pixels == 0);
+  CHECK(img.data == square.data);
+}
+
 TEST_CASE("mask error: seeded, and rejects bad settings and images without alpha") {
   MaskErrorSettings st;
   st.blob_prob = 0.5;
@@ -264,6 +330,18 @@ TEST_CASE("mask error: seeded, and rejects bad settings and images without alpha
   no_edge.edge_halo = 0.1;
   apply_mask_error(e, no_edge, 7, 1.0f);
   CHECK(d.data == e.data);
+  // The end cut's draws come last too: with cut_prob 0 its other settings change nothing, and a cut changes the
+  // result.
+  MaskErrorSettings no_cut = st;
+  no_cut.cut_depth_min = 0.2;
+  no_cut.cut_tilt_deg = 30;
+  Image f = body_and_leg();
+  apply_mask_error(f, no_cut, 7, 1.0f);
+  CHECK(f.data == a.data);
+  no_cut.cut_prob = 1;
+  f = body_and_leg();
+  apply_mask_error(f, no_cut, 7, 1.0f);
+  CHECK(f.data != a.data);
   Image rgb(8, 8, 3, 0.0f);
   CHECK_THROWS_AS(apply_mask_error(rgb, st, 1, 1.0f), InvalidInput);
   MaskErrorSettings bad = st;
@@ -278,5 +356,11 @@ TEST_CASE("mask error: seeded, and rejects bad settings and images without alpha
   CHECK_THROWS_AS(apply_mask_error(a, bad, 1, 1.0f), InvalidInput);
   bad = st;
   bad.thin_radius_max = 0;
+  CHECK_THROWS_AS(apply_mask_error(a, bad, 1, 1.0f), InvalidInput);
+  bad = st;
+  bad.cut_depth_max = 1.0;
+  CHECK_THROWS_AS(apply_mask_error(a, bad, 1, 1.0f), InvalidInput);
+  bad = st;
+  bad.cut_prob = 2;
   CHECK_THROWS_AS(apply_mask_error(a, bad, 1, 1.0f), InvalidInput);
 }

@@ -716,6 +716,30 @@ TEST_CASE("mask-error augmentation: seeded per image, thin parts dropped to whit
   CHECK(std::count(applied.begin(), applied.end(), 1) == 0);
   st.prob = 2;
   CHECK_THROWS_AS(mask_error_images(off, st, 4, 20), InvalidInput);
+  // The end cut is in the recorded settings only when on, so that the states of earlier runs still resume.
+  MaskErrorAugmentSettings rec;
+  rec.prob = 0.5;
+  CHECK_FALSE(rec.to_json().contains("cut"));
+  rec.error.cut_prob = 0.25;
+  CHECK(rec.to_json()["cut"]["prob"].get<double>() == 0.25);
+  // With the cut (and nothing else) every image loses ink, at least 5% of the box's depth at one end, and gains none.
+  st.prob = 1;
+  st.error.blob_prob = 0;
+  st.error.thin_drop = 0;
+  st.error.edge_prob = 0;
+  st.error.cut_prob = 1;
+  MatrixXfR cut = clean;
+  mask_error_images(cut, st, 4, 20);
+  for (int b = 0; b < 6; ++b) {
+    CAPTURE(b);
+    long lost = 0, gained = 0;
+    for (int i = 0; i < S * S; ++i) {
+      lost += clean(b, i) != kNetBackground && cut(b, i) == kNetBackground;
+      gained += clean(b, i) == kNetBackground && cut(b, i) != kNetBackground;
+    }
+    CHECK(lost >= 2);  // the leg's foot (2 px wide), or more
+    CHECK(gained == 0);
+  }
 }
 
 TEST_CASE("ink_mask: 1 on the non-white pixels, 0 on the white ones") {
