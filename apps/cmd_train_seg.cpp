@@ -36,6 +36,10 @@ std::function<int()> setup_train_seg(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--val-split", s.val_split, "validation split (\"\" = composites of the training shapes)")
       ->capture_default_str();
+  app.add_option("--val-backgrounds", s.val_backgrounds,
+                 "background photos of the validation composites, kept out of training (a folder or list file, as "
+                 "--backgrounds); default: the training backgrounds, whose composites flatter a segmenter that has "
+                 "learnt them. Validation only: the training bytes do not change");
   app.add_option("--steps", s.steps, "optimisation steps")->capture_default_str()->check(positive());
   app.add_option("--batch", s.batch, "composites per step")->capture_default_str()->check(positive());
   app.add_option("--lr", s.lr, "Adam learning rate (cosine decay to --lr-min)")->capture_default_str()->check(positive());
@@ -142,6 +146,7 @@ std::function<int()> setup_train_seg(CLI::App& app) {
                     {"seconds_per_step", r.steps > r.start_step ? r.seconds / static_cast<double>(r.steps - r.start_step) : 0.0},
                     {"train_items", r.train_items},
                     {"backgrounds", r.backgrounds},
+                    {"val_backgrounds", r.val_backgrounds},
                     {"val", {{"loss", r.val.loss}, {"iou", r.val.iou}, {"items", r.val.items}}}};
     if (o->json)
       std::cout << j.dump(2) << '\n';

@@ -159,6 +159,9 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
   require(!train_pairs.empty(), s.data + ": the training split has no views");
   require(!val_pairs.empty(), s.data + ": the validation split has no views");
   const BackgroundSet backgrounds = s.backgrounds.empty() ? BackgroundSet() : BackgroundSet(s.backgrounds, s.background_side);
+  const BackgroundSet val_backgrounds =
+      s.val_backgrounds.empty() ? BackgroundSet() : BackgroundSet(s.val_backgrounds, s.background_side);
+  const BackgroundSet& val_photos = s.val_backgrounds.empty() ? backgrounds : val_backgrounds;
 
   // The validation composites, once: item k shows a seeded pair on the background drawn from stream kValStream + k.
   std::vector<ValItem> val_items(static_cast<size_t>(s.val_items));
@@ -168,7 +171,7 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
     for (int k = 0; k < s.val_items; ++k) chosen.push_back(val_pairs[rng.below(val_pairs.size())]);
     parallel_for_ordered_errors(0, s.val_items, [&](int k) {  // a bad view's error: the first one in order
       const auto [shape, view] = chosen[static_cast<size_t>(k)];
-      const SegSample smp = make_composite(val.image(static_cast<size_t>(shape), view), &backgrounds, s.composite,
+      const SegSample smp = make_composite(val.image(static_cast<size_t>(shape), view), &val_photos, s.composite,
                                            s.seed, kValStream + static_cast<uint64_t>(k));
       ValItem& it = val_items[static_cast<size_t>(k)];
       to_tensors(smp, it.x, it.y);
@@ -209,6 +212,7 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
   result.plot = loss_curve_path(s.out, "svg");
   result.train_items = static_cast<long>(train_pairs.size());
   result.backgrounds = static_cast<long>(backgrounds.size());
+  result.val_backgrounds = static_cast<long>(val_backgrounds.size());
   for (const std::string& path : {state_path, s.out, result.csv, result.plot}) remove_stale_temporaries(path);
   const Json settings_record = settings_json(s, backgrounds.size());
   long step = 0;
@@ -293,9 +297,10 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
       row[2] = ev.val.loss;
       row[3] = ev.val.iou;
       curve.push_back(row);
-      const Json training = {{"step", step},         {"seconds", ev.seconds}, {"val_loss", ev.val.loss},
-                             {"val_iou", ev.val.iou}, {"settings", settings_record}, {"data", s.data},
-                             {"val_split", s.val_split}};
+      Json training = {{"step", step},         {"seconds", ev.seconds}, {"val_loss", ev.val.loss},
+                       {"val_iou", ev.val.iou}, {"settings", settings_record}, {"data", s.data},
+                       {"val_split", s.val_split}};
+      if (!s.val_backgrounds.empty()) training["val_backgrounds"] = s.val_backgrounds;
       save_checkpoint(state_path, training_state_checkpoint("seg_training_state", net.architecture(), settings_record,
                                                             {step, ev.seconds, curve}, net.params().values.data(),
                                                             net.n_params(), opt));

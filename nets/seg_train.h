@@ -26,6 +26,9 @@ struct SegTrainSettings {
   int background_side = 256;          ///< backgrounds are shrunk to this longer side when loaded
   std::string train_split = "train";  ///< split name or list file (DatasetSettings::split)
   std::string val_split = "val";      ///< "" = validate on (other composites of) the training shapes
+  /// Background photos of the validation composites, kept out of training (a folder or list, as `backgrounds`);
+  /// "" = the training backgrounds. Validation only reads them: the training bytes do not depend on them.
+  std::string val_backgrounds;
   std::string out;                    ///< model path; MODEL_STEM.loss.csv/.svg and MODEL.train.ckpt beside it
   SegNetConfig net;
   SegCompositeSettings composite;     ///< composite.size is taken from net.size
@@ -65,6 +68,7 @@ struct SegTrainResult {
   SegScores val;
   long train_items = 0;  ///< (shape, view) pairs of the training split
   long backgrounds = 0;  ///< background photos loaded
+  long val_backgrounds = 0;  ///< validation background photos loaded (0 = validation used the training ones)
   std::string model, csv, plot;
 };
 

@@ -315,6 +315,36 @@ TEST_CASE("SegTrain: the thin-part weight changes the training, is recorded only
   CHECK(!fs::exists(bad.out));
 }
 
+TEST_CASE("SegTrain: validation backgrounds change the validation composites only, and are recorded") {
+  const fs::path root = make_seg_dataset("seg_train_valbg");
+  SegTrainSettings plain = tiny_run(root, "plain.ckpt");
+  plain.composite.procedural = 0;  // every composite on a photo, so the validation set's photos matter
+  const SegTrainResult a = train_seg(plain);
+  SegTrainSettings held = plain;
+  held.out = (root / "held.ckpt").string();
+  held.val_backgrounds = (root / "bg" / "sub").string();  // the noise photo alone
+  const SegTrainResult b = train_seg(held);
+  CHECK(a.val_backgrounds == 0);
+  CHECK(b.val_backgrounds == 1);
+  CHECK(b.backgrounds == 2);
+  // The same training bytes, other validation composites (so another validation loss).
+  CHECK(load_checkpoint(held.out).block("params") == load_checkpoint(plain.out).block("params"));
+  CHECK(b.val.loss != a.val.loss);
+  CHECK(load_checkpoint(held.out).header.at("training").at("val_backgrounds").get<std::string>() ==
+        held.val_backgrounds);
+  CHECK(!load_checkpoint(plain.out).header.at("training").contains("val_backgrounds"));
+  // A missing folder is an error naming it, before any training.
+  SegTrainSettings bad = tiny_run(root, "bad.ckpt");
+  bad.val_backgrounds = (root / "no_such_folder").string();
+  try {
+    train_seg(bad);
+    CHECK(false);
+  } catch (const std::exception& e) {
+    CHECK(std::string(e.what()).find("no_such_folder") != std::string::npos);
+  }
+  CHECK(!fs::exists(bad.out));
+}
+
 TEST_CASE("SegTrain: --init adds the fine branch to a trained coarse model, and refuses other architectures") {
   const fs::path root = make_seg_dataset("seg_train_fine");
   SegTrainSettings coarse = tiny_run(root, "coarse.ckpt");
