@@ -85,6 +85,15 @@ std::function<int()> setup_train_seg(CLI::App& app) {
   app.add_option("--clutter-shapes", s.composite.clutter_shapes, "most clutter shapes in one composite")
       ->capture_default_str()
       ->check(in_range(1, 1000));
+  app.add_option("--cutouts", s.cutouts,
+                 "cut-out objects (RGBA images with transparent surroundings: animals, tools, vehicles, people): a "
+                 "folder or list file as --backgrounds; pasted over the backgrounds of training composites with "
+                 "--cutout-prob (the salient things of a busy photo that are not the object)");
+  app.add_option("--cutout-prob", s.composite.cutouts,
+                 "probability of pasting 1-3 cut-outs of --cutouts (longer side 0.15-0.7 of the canvas's) over a "
+                 "training composite's background, behind the object; 0 = off")
+      ->capture_default_str()
+      ->check(in_range(0.0, 1.0));
   app.add_option("--object-range", o->object_range,
                  "MIN,MAX: the object's box longer side as a share of the canvas's longer side")
       ->capture_default_str();
@@ -147,6 +156,7 @@ std::function<int()> setup_train_seg(CLI::App& app) {
                     {"train_items", r.train_items},
                     {"backgrounds", r.backgrounds},
                     {"val_backgrounds", r.val_backgrounds},
+                    {"cutouts", r.cutouts},
                     {"val", {{"loss", r.val.loss}, {"iou", r.val.iou}, {"items", r.val.items}}}};
     if (o->json)
       std::cout << j.dump(2) << '\n';

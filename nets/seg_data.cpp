@@ -18,6 +18,18 @@ namespace fs = std::filesystem;
 namespace sdfkit {
 namespace {
 using Rgb = std::array<float, 3>;
+
+// RGBA with the colour premultiplied by the alpha (an image without alpha: opaque).
+Image premultiplied_rgba(const Image& img) {
+  const Image rgb = to_rgb(img, 0.0f), a = alpha_of(img);
+  Image out(img.width, img.height, 4);
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      for (int c = 0; c < 3; ++c) out.at(x, y, c) = rgb.at(x, y, c);
+      out.at(x, y, 3) = a.at(x, y);
+    }
+  return out;
+}
 constexpr double kPi = 3.14159265358979323846;
 }  // namespace
 
@@ -35,7 +47,7 @@ std::string procedural_name(ProceduralBackground k) {
 Json SegCompositeSettings::to_json() const {
   std::vector<std::string> k;
   for (const auto kind : kinds) k.push_back(procedural_name(kind));
-  return {{"size", size},
+  Json j = {{"size", size},
           {"procedural", procedural},
           {"object_min", object_min},
           {"object_max", object_max},
@@ -47,6 +59,10 @@ Json SegCompositeSettings::to_json() const {
           {"clutter", clutter},
           {"clutter_shapes", clutter_shapes},
           {"kinds", k}};
+  // Only when on, so that the settings recorded before the cut-outs existed still match.
+  if (cutouts > 0)
+    j["cutouts"] = {{"prob", cutouts}, {"max", cutouts_max}, {"size", {cutout_min, cutout_max}}};
+  return j;
 }
 
 void SegCompositeSettings::validate() const {
@@ -58,6 +74,10 @@ void SegCompositeSettings::validate() const {
   require(overflow >= 0 && overflow < 0.5, "segmenter data: the overflow must be in [0, 0.5)");
   require(object_jitter >= 0 && object_jitter < 1 && background_jitter >= 0 && background_jitter < 1,
           "segmenter data: jitters must be in [0, 1)");
+  require(cutouts >= 0 && cutouts <= 1, "segmenter data: the cut-out probability must be in [0, 1]");
+  require(cutouts_max >= 1 && cutouts_max <= 100, "segmenter data: the cut-outs per composite must be 1..100");
+  require(cutout_min > 0 && cutout_min <= cutout_max && cutout_max <= 2,
+          "segmenter data: need 0 < cutout-min <= cutout-max <= 2");
   require(!kinds.empty(), "segmenter data: no procedural background kind");
   require(procedural_noise >= 0 && procedural_noise <= 0.5, "segmenter data: the procedural noise must be in [0, 0.5]");
   require(clutter >= 0 && clutter <= 1, "segmenter data: the clutter probability must be in [0, 1]");
@@ -103,12 +123,13 @@ std::vector<std::string> list_background_files(const std::string& source) {
   return files;
 }
 
-BackgroundSet::BackgroundSet(const std::string& source, int max_side) {
+BackgroundSet::BackgroundSet(const std::string& source, int max_side, bool alpha) {
   require(max_side >= 8, "backgrounds: the largest side must be >= 8");
   paths_ = list_background_files(source);
   images_.resize(paths_.size());
   parallel_for_ordered_errors(size_t(0), paths_.size(), [&](size_t i) {  // an unreadable file: the first one
-    Image rgb = to_rgb(read_image(paths_[i]), 1.0f);
+    const Image img = read_image(paths_[i]);
+    Image rgb = alpha ? premultiplied_rgba(img) : to_rgb(img, 1.0f);
     for (float& v : rgb.data) v = std::clamp(v, 0.0f, 1.0f);
     const int longer = std::max(rgb.width, rgb.height);
     if (longer > max_side) {
@@ -306,10 +327,52 @@ void add_clutter(Image& bg, const BackgroundSet* photos, int max_shapes, double 
   }
 }
 
+/// Step 6 of the header comment: cut-out objects (premultiplied RGBA) pasted over `bg`.
+void add_cutouts(Image& bg, const BackgroundSet& cutouts, const SegCompositeSettings& s, Rng& rng) {
+  const int W = bg.width, H = bg.height;
+  const auto n = static_cast<int>(1 + rng.below(static_cast<uint64_t>(s.cutouts_max)));
+  for (int k = 0; k < n; ++k) {
+    const Image& cut = cutouts.image(static_cast<size_t>(rng.below(cutouts.size())));
+    const double longer = rng.uniform(s.cutout_min, s.cutout_max) * std::max(W, H);
+    const double cx = rng.uniform(0, W), cy = rng.uniform(0, H);
+    const bool flip = rng.uniform() < 0.5;
+    const double bright = rng.uniform(1 - s.background_jitter, 1 + s.background_jitter);
+    const double scale = longer / std::max(cut.width, cut.height);  // canvas px per cut-out px
+    const double cw = cut.width * scale, ch = cut.height * scale;
+    const int x0 = std::max(0, static_cast<int>(std::floor(cx - cw / 2)));
+    const int x1 = std::min(W - 1, static_cast<int>(std::ceil(cx + cw / 2)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(cy - ch / 2)));
+    const int y1 = std::min(H - 1, static_cast<int>(std::ceil(cy + ch / 2)));
+    const int m = std::clamp(static_cast<int>(std::ceil(1.0 / scale)), 1, 4);  // samples per pixel side when shrinking
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        double acc[4] = {0, 0, 0, 0};
+        for (int j = 0; j < m; ++j)
+          for (int i = 0; i < m; ++i) {
+            double u = (x + (i + 0.5) / m - (cx - cw / 2)) / scale - 0.5;  // cut-out pixel-centre coordinates
+            const double v = (y + (j + 0.5) / m - (cy - ch / 2)) / scale - 0.5;
+            if (flip) u = cut.width - 1 - u;
+            if (u < -0.5 || v < -0.5 || u > cut.width - 0.5 || v > cut.height - 0.5) continue;
+            const double fu = std::clamp(u, 0.0, cut.width - 1.0), fv = std::clamp(v, 0.0, cut.height - 1.0);
+            const int u0 = static_cast<int>(fu), v0 = static_cast<int>(fv);
+            const int u1 = std::min(u0 + 1, cut.width - 1), v1 = std::min(v0 + 1, cut.height - 1);
+            const double au = fu - u0, av = fv - v0;
+            for (int c = 0; c < 4; ++c)
+              acc[c] += (1 - av) * ((1 - au) * cut.at(u0, v0, c) + au * cut.at(u1, v0, c)) +
+                        av * ((1 - au) * cut.at(u0, v1, c) + au * cut.at(u1, v1, c));
+          }
+        const double inv = 1.0 / (m * m), a = acc[3] * inv;
+        if (a <= 0) continue;
+        for (int c = 0; c < 3; ++c)
+          bg.at(x, y, c) = clamp01(acc[c] * inv * bright + (1 - a) * bg.at(x, y, c));
+      }
+  }
+}
+
 }  // namespace
 
 Image draw_background(int width, int height, const BackgroundSet* backgrounds, const SegCompositeSettings& s,
-                      const std::array<float, 3>& near, Rng& rng, std::string* name) {
+                      const std::array<float, 3>& near, Rng& rng, std::string* name, const BackgroundSet* cutouts) {
   require(width > 0 && height > 0, "segmenter data: a background needs a positive size");
   Image bg(width, height, 3);
   std::string what;
@@ -327,12 +390,17 @@ Image draw_background(int width, int height, const BackgroundSet* backgrounds, c
     add_clutter(bg, backgrounds, s.clutter_shapes, s.background_jitter, rng);
     what += "+clutter";
   }
+  // Drawn only when on (with a set), so that composites made before the cut-outs existed repeat.
+  if (s.cutouts > 0 && cutouts != nullptr && !cutouts->empty() && rng.uniform() < s.cutouts) {
+    add_cutouts(bg, *cutouts, s, rng);
+    what += "+cutouts";
+  }
   if (name) *name = std::move(what);
   return bg;
 }
 
 SegSample make_composite(const Image& render, const BackgroundSet* backgrounds, const SegCompositeSettings& s,
-                         uint64_t seed, uint64_t stream) {
+                         uint64_t seed, uint64_t stream, const BackgroundSet* cutouts) {
   require(!render.empty(), "segmenter data: empty render");
   Rng rng = Rng::derived(seed, stream);
   const int S = s.size;
@@ -385,7 +453,7 @@ SegSample make_composite(const Image& render, const BackgroundSet* backgrounds, 
     for (int c = 0; c < 3; ++c) near[static_cast<size_t>(c)] = clamp01(mean[c] / mass * gain[static_cast<size_t>(c)]);
   // 4-5. The background and its clutter.
   SegSample out;
-  const Image bg = draw_background(W, H, backgrounds, s, near, rng, &out.background);
+  const Image bg = draw_background(W, H, backgrounds, s, near, rng, &out.background, cutouts);
 
   // The object resampled onto the canvas: canvas point q -> render point m + (q - d) / k.
   Image canvas(W, H, 3), label(W, H, 1);

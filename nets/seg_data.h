@@ -21,6 +21,12 @@
 //     of the canvas diagonal, shorter/longer 0.15-1, each filled with a random colour shaded by a linear ramp or (half
 //     of them, with background photos) a crop of a random photo; edges anti-aliased (4 x 4 coverage). Busy photos
 //     show many object-like things the segmenter must leave out; the object's label is unchanged (it is in front).
+//  6. cut-outs (drawn only when `cutouts` > 0 and a cut-out set is given): with probability `cutouts`, 1..cutouts_max
+//     cut-out objects (RGBA images: animals, tools, vehicles, people) pasted over the background, later ones on top,
+//     each scaled so that its longer side is U(cutout_min, cutout_max) x the canvas's longer side, its centre
+//     uniform over the canvas, mirrored on a coin, its brightness jittered as a photo's. The salient things of a
+//     busy photograph (a horse, a face, a fruit) that the segmenter takes for the object are objects, not the
+//     dead-leaves shapes of step 5.
 // image = object (premultiplied, jittered) + (1 - alpha) background; label = the resampled alpha; both letterboxed.
 #pragma once
 
@@ -52,6 +58,9 @@ struct SegCompositeSettings {
   double procedural_noise = 0.03;   ///< largest standard deviation of a procedural background's pixel noise
   double clutter = 0;           ///< probability of dead-leaves clutter over the background (step 5; 0 = never drawn)
   int clutter_shapes = 24;      ///< most clutter shapes in one composite
+  double cutouts = 0;           ///< probability of pasting cut-out objects (step 6; 0 = never drawn)
+  int cutouts_max = 3;          ///< most cut-outs in one composite
+  double cutout_min = 0.15, cutout_max = 0.7;  ///< a cut-out's longer side / the canvas's longer side
   /// Procedural kinds drawn from (uniformly); all by default.
   std::vector<ProceduralBackground> kinds = {ProceduralBackground::kFlat, ProceduralBackground::kGradient,
                                              ProceduralBackground::kNoise, ProceduralBackground::kStripes,
@@ -71,14 +80,16 @@ class BackgroundSet {
   /// tif, tiff, bmp, exr, webp; sorted by path) or a list file (.txt/.lst: one path per line, relative to the list's
   /// folder; blank lines and '#' comments skipped). IoError naming the folder/list when it is missing or holds no
   /// image, or naming the image that cannot be read.
-  explicit BackgroundSet(const std::string& source, int max_side = 256);
+  /// `alpha`: keep each image's alpha (RGBA, premultiplied; an image without alpha is opaque): the cut-outs of
+  /// SegCompositeSettings::cutouts. Otherwise RGB, composited on white.
+  explicit BackgroundSet(const std::string& source, int max_side = 256, bool alpha = false);
   [[nodiscard]] size_t size() const { return images_.size(); }
   [[nodiscard]] bool empty() const { return images_.empty(); }
   [[nodiscard]] const Image& image(size_t i) const { return images_.at(i); }
   [[nodiscard]] const std::string& path(size_t i) const { return paths_.at(i); }
 
  private:
-  std::vector<Image> images_;  // RGB
+  std::vector<Image> images_;  // RGB, or premultiplied RGBA
   std::vector<std::string> paths_;
 };
 
@@ -92,20 +103,23 @@ struct SegSample {
   Image label;  ///< S x S x 1
   int canvas_x0 = 0, canvas_y0 = 0, canvas_width = 0, canvas_height = 0;
   /// "flat", "gradient", "noise", "stripes", "checker", or "photo:<index>"; "+clutter" appended when step 5 drew
-  /// clutter.
+  /// clutter, "+cutouts" when step 6 pasted cut-outs.
   std::string background;
 };
 
 /// A background as make_composite's steps 4 and 5 draw it (see the header comment), width x height RGB, drawn from
 /// `rng` in that order: a random crop of a photo of `backgrounds` (may be null or empty) or a procedural background
-/// whose colours may lie near `near` (the object's mean colour), then clutter when settings.clutter > 0. `name`
-/// (optional) receives what it was, as SegSample::background names it.
+/// whose colours may lie near `near` (the object's mean colour), then clutter when settings.clutter > 0, then
+/// cut-outs of `cutouts` (RGBA BackgroundSet; may be null) when settings.cutouts > 0. `name` (optional) receives what
+/// it was, as SegSample::background names it.
 Image draw_background(int width, int height, const BackgroundSet* backgrounds, const SegCompositeSettings& settings,
-                      const std::array<float, 3>& near, Rng& rng, std::string* name = nullptr);
+                      const std::array<float, 3>& near, Rng& rng, std::string* name = nullptr,
+                      const BackgroundSet* cutouts = nullptr);
 
 /// Composite `render` (RGBA; RGB or grey is taken as opaque) onto a background, drawing every choice from
-/// Rng::derived(seed, stream) (see the header comment). `backgrounds` may be null or empty (procedural only).
+/// Rng::derived(seed, stream) (see the header comment). `backgrounds` may be null or empty (procedural only);
+/// `cutouts` (RGBA, may be null) are step 6's objects.
 SegSample make_composite(const Image& render, const BackgroundSet* backgrounds, const SegCompositeSettings& settings,
-                         uint64_t seed, uint64_t stream);
+                         uint64_t seed, uint64_t stream, const BackgroundSet* cutouts = nullptr);
 
 }  // namespace sdfkit

@@ -42,7 +42,7 @@ std::vector<std::pair<int, int>> dataset_pairs(const Dataset& d) {
   return pairs;
 }
 
-Json settings_json(const SegTrainSettings& s, size_t backgrounds) {
+Json settings_json(const SegTrainSettings& s, size_t backgrounds, size_t cutouts) {
   // What must not change across a resume (it would break the bit-exact continuation).
   Json j = {{"train_split", s.train_split},  {"backgrounds", s.backgrounds}, {"background_files", backgrounds},
           {"background_side", s.background_side}, {"composite", s.composite.to_json()}, {"steps", s.steps},
@@ -54,6 +54,10 @@ Json settings_json(const SegTrainSettings& s, size_t backgrounds) {
   if (s.thin_weight != 1.0) {
     j["thin_weight"] = s.thin_weight;
     j["thin_radius"] = s.thin_radius;
+  }
+  if (!s.cutouts.empty()) {
+    j["cutouts"] = s.cutouts;
+    j["cutout_files"] = cutouts;
   }
   return j;
 }
@@ -162,6 +166,9 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
   const BackgroundSet val_backgrounds =
       s.val_backgrounds.empty() ? BackgroundSet() : BackgroundSet(s.val_backgrounds, s.background_side);
   const BackgroundSet& val_photos = s.val_backgrounds.empty() ? backgrounds : val_backgrounds;
+  require(s.composite.cutouts == 0 || !s.cutouts.empty(), "train seg: cut-outs need a set of cut-out images (--cutouts)");
+  require(s.cutouts.empty() || s.composite.cutouts > 0, "train seg: --cutouts applies with --cutout-prob above 0");
+  const BackgroundSet cutouts = s.cutouts.empty() ? BackgroundSet() : BackgroundSet(s.cutouts, s.background_side, true);
 
   // The validation composites, once: item k shows a seeded pair on the background drawn from stream kValStream + k.
   std::vector<ValItem> val_items(static_cast<size_t>(s.val_items));
@@ -213,8 +220,9 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
   result.train_items = static_cast<long>(train_pairs.size());
   result.backgrounds = static_cast<long>(backgrounds.size());
   result.val_backgrounds = static_cast<long>(val_backgrounds.size());
+  result.cutouts = static_cast<long>(cutouts.size());
   for (const std::string& path : {state_path, s.out, result.csv, result.plot}) remove_stale_temporaries(path);
-  const Json settings_record = settings_json(s, backgrounds.size());
+  const Json settings_record = settings_json(s, backgrounds.size(), cutouts.size());
   long step = 0;
   double prior_seconds = 0;
   Json curve = Json::array();
@@ -261,7 +269,7 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
       const auto [shape, view] = items[static_cast<size_t>(b)];
       const uint64_t g = static_cast<uint64_t>(step) * static_cast<uint64_t>(s.batch) + static_cast<uint64_t>(b);
       const SegSample smp =
-          make_composite(train.image(static_cast<size_t>(shape), view), &backgrounds, s.composite, s.seed, g);
+          make_composite(train.image(static_cast<size_t>(shape), view), &backgrounds, s.composite, s.seed, g, &cutouts);
       Tensor x, y, dz;
       to_tensors(smp, x, y);
       SegNet& r = *replicas[static_cast<size_t>(b)];

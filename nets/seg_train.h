@@ -24,6 +24,9 @@ struct SegTrainSettings {
   std::string data;                   ///< prepared dataset folder (views/NN.png RGBA renders)
   std::string backgrounds;            ///< folder or list of background photos ("" = procedural backgrounds only)
   int background_side = 256;          ///< backgrounds are shrunk to this longer side when loaded
+  /// Cut-out objects (RGBA images: a folder or list, as `backgrounds`) of composite.cutouts; shrunk as the
+  /// backgrounds. Training composites only: the validation composites have none.
+  std::string cutouts;
   std::string train_split = "train";  ///< split name or list file (DatasetSettings::split)
   std::string val_split = "val";      ///< "" = validate on (other composites of) the training shapes
   /// Background photos of the validation composites, kept out of training (a folder or list, as `backgrounds`);
@@ -69,6 +72,7 @@ struct SegTrainResult {
   long train_items = 0;  ///< (shape, view) pairs of the training split
   long backgrounds = 0;  ///< background photos loaded
   long val_backgrounds = 0;  ///< validation background photos loaded (0 = validation used the training ones)
+  long cutouts = 0;          ///< cut-out objects loaded
   std::string model, csv, plot;
 };
 

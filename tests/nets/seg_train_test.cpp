@@ -217,6 +217,61 @@ TEST_CASE("SegData: clutter changes the background only, and draws edges on a fl
   CHECK(changed_images >= 12);  // a shape may fall behind the object or cover little; most composites change
 }
 
+TEST_CASE("SegData: cut-outs are pasted behind the object, premultiplied, and change nothing when off") {
+  const fs::path root = make_seg_dataset("seg_cutouts");
+  // One cut-out: a 40 x 20 image, transparent but for an opaque red 20 x 10 block in its middle.
+  Image cut(40, 20, 4, 0.0f);
+  for (int y = 5; y < 15; ++y)
+    for (int x = 10; x < 30; ++x) cut.at(x, y, 0) = 1, cut.at(x, y, 3) = 1;
+  for (int y = 0; y < 20; ++y) cut.at(0, y, 1) = 0.8f;  // colour under zero alpha: premultiplied away
+  write_image((root / "cut" / "block.png").string(), cut);
+  const BackgroundSet cutouts((root / "cut").string(), 256, true);
+  REQUIRE(cutouts.size() == 1);
+  CHECK(cutouts.image(0).channels == 4);
+  CHECK(cutouts.image(0).at(0, 3, 1) == 0.0f);
+  CHECK(cutouts.image(0).at(15, 10, 0) == 1.0f);
+  CHECK(BackgroundSet((root / "cut").string()).image(0).channels == 3);
+
+  SegCompositeSettings flat;
+  flat.size = 64;
+  flat.procedural = 1;
+  flat.kinds = {ProceduralBackground::kFlat};
+  flat.procedural_noise = 0;
+  SegCompositeSettings with = flat;
+  with.cutouts = 1;
+  SegCompositeSettings bad = with;
+  bad.cutout_min = 0;
+  CHECK_THROWS_AS(bad.validate(), InvalidInput);
+  CHECK(!flat.to_json().contains("cutouts"));
+  CHECK(with.to_json().at("cutouts").at("prob").get<double>() == 1.0);
+  int red_behind = 0, changed = 0;
+  for (uint64_t stream = 0; stream < 12; ++stream) {
+    const Image render = make_render(static_cast<int>(stream % 2), 0);
+    const SegSample a = make_composite(render, nullptr, flat, 3, stream);
+    // Off (or without a set), the composite is the one made before cut-outs existed.
+    CHECK(make_composite(render, nullptr, flat, 3, stream, &cutouts).image.data == a.image.data);
+    CHECK(make_composite(render, nullptr, with, 3, stream).image.data == a.image.data);
+    const SegSample b = make_composite(render, nullptr, with, 3, stream, &cutouts);
+    CHECK(b.background == "flat+cutouts");
+    CHECK(b.label.data == a.label.data);  // drawn after the object's choices, behind it
+    changed += b.image.data != a.image.data ? 1 : 0;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        if (a.label.at(x, y) > 0) {  // the object's pixels stay the object's where it is opaque
+          if (a.label.at(x, y) == 1)
+            for (int c = 0; c < 3; ++c) CHECK(b.image.at(x, y, c) == doctest::Approx(a.image.at(x, y, c)).epsilon(1e-5));
+          continue;
+        }
+        // The background changed only towards the cut-out's red: R up or kept, G and B down or kept.
+        CHECK(b.image.at(x, y, 1) <= a.image.at(x, y, 1) + 1e-5f);
+        CHECK(b.image.at(x, y, 2) <= a.image.at(x, y, 2) + 1e-5f);
+        red_behind += b.image.at(x, y, 1) < a.image.at(x, y, 1) - 0.1f ? 1 : 0;
+      }
+  }
+  CHECK(red_behind > 100);
+  CHECK(changed >= 10);  // a cut-out may fall behind the object or mostly off the canvas
+}
+
 TEST_CASE("SegTrain: a few dozen steps on a tiny dataset lower the loss, and validation IoU is measured") {
   const fs::path root = make_seg_dataset("seg_train_loss");
   SegTrainSettings s = tiny_run(root, "seg.ckpt");
@@ -342,6 +397,33 @@ TEST_CASE("SegTrain: validation backgrounds change the validation composites onl
   } catch (const std::exception& e) {
     CHECK(std::string(e.what()).find("no_such_folder") != std::string::npos);
   }
+  CHECK(!fs::exists(bad.out));
+}
+
+TEST_CASE("SegTrain: cut-outs change the training and are recorded, and need both the set and a probability") {
+  const fs::path root = make_seg_dataset("seg_train_cutouts");
+  Image cut(30, 30, 4, 0.0f);
+  for (int y = 5; y < 25; ++y)
+    for (int x = 8; x < 22; ++x) cut.at(x, y, 2) = 0.9f, cut.at(x, y, 3) = 1;
+  write_image((root / "cut" / "a.png").string(), cut);
+  SegTrainSettings plain = tiny_run(root, "plain.ckpt");
+  const SegTrainResult a = train_seg(plain);
+  SegTrainSettings with = tiny_run(root, "with.ckpt");
+  with.cutouts = (root / "cut").string();
+  with.composite.cutouts = 1;
+  const SegTrainResult b = train_seg(with);
+  CHECK(a.cutouts == 0);
+  CHECK(b.cutouts == 1);
+  CHECK(load_checkpoint(with.out).block("params") != load_checkpoint(plain.out).block("params"));
+  const Json rec = load_checkpoint(with.out + ".train.ckpt").header.at("settings");
+  CHECK(rec.at("cutout_files").get<long>() == 1);
+  CHECK(!load_checkpoint(plain.out + ".train.ckpt").header.at("settings").contains("cutouts"));
+  SegTrainSettings bad = tiny_run(root, "bad.ckpt");
+  bad.composite.cutouts = 0.5;
+  CHECK_THROWS_AS(train_seg(bad), InvalidInput);
+  bad.composite.cutouts = 0;
+  bad.cutouts = with.cutouts;
+  CHECK_THROWS_AS(train_seg(bad), InvalidInput);
   CHECK(!fs::exists(bad.out));
 }
 
