@@ -66,10 +66,10 @@ Image thin_parts(const Image& mask, int radius);
 Image dilate_mask(const Image& mask, int radius);
 
 /// Applies a seeded segmentation error to an RGBA image in place (4 channels; the object is alpha > 0.5): an end cut
-/// off (when cut_prob > 0), thin parts, then the outline, then a blob. Dropped pixels get alpha 0 and RGB `background`, halo and blob pixels alpha 1 and a
-/// colour of a random base, gradient and noise,
-/// every channel in [0.02, 0.9] (never the white background). The same seed gives the same result; an image without
-/// object pixels is left as it is. Throws InvalidInput on settings out of range or an image without 4 channels.
+/// off (when cut_prob > 0), thin parts, then the outline, then a blob. Dropped pixels get alpha 0 and RGB
+/// `background`, halo and blob pixels alpha 1 and a colour of a random base, gradient and noise, every channel in
+/// [0.02, 0.9] (never the white background). The same seed gives the same result; an image without object pixels is
+/// left as it is. Throws InvalidInput on settings out of range or an image without 4 channels.
 MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& settings, uint64_t seed,
                                  float background = 1.0f);
 

@@ -166,7 +166,8 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
   const BackgroundSet val_backgrounds =
       s.val_backgrounds.empty() ? BackgroundSet() : BackgroundSet(s.val_backgrounds, s.background_side);
   const BackgroundSet& val_photos = s.val_backgrounds.empty() ? backgrounds : val_backgrounds;
-  require(s.composite.cutouts == 0 || !s.cutouts.empty(), "train seg: cut-outs need a set of cut-out images (--cutouts)");
+  require(s.composite.cutouts == 0 || !s.cutouts.empty(),
+          "train seg: cut-outs need a set of cut-out images (--cutouts)");
   require(s.cutouts.empty() || s.composite.cutouts > 0, "train seg: --cutouts applies with --cutout-prob above 0");
   const BackgroundSet cutouts = s.cutouts.empty() ? BackgroundSet() : BackgroundSet(s.cutouts, s.background_side, true);
 
