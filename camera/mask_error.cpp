@@ -154,12 +154,15 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
   if (cut) {
     const double angle = cut_end * M_PI / 2 + cut_tilt;  // 0 = right, then bottom, left, top (image y down)
     const double dx = std::cos(angle), dy = std::sin(angle);
+    auto along = [&](size_t i) {  // pixel i's centre projected on the end's direction
+      return (static_cast<double>(i % static_cast<size_t>(W)) + 0.5) * dx +
+             (static_cast<double>(i / static_cast<size_t>(W)) + 0.5) * dy;
+    };
     double lo = 1e300, hi = -1e300;
     long total = 0;
     for (size_t i = 0; i < n; ++i)
       if (obj[i]) {
-        const double t = (static_cast<double>(i % static_cast<size_t>(W)) + 0.5) * dx +
-                         (static_cast<double>(i / static_cast<size_t>(W)) + 0.5) * dy;
+        const double t = along(i);
         lo = std::min(lo, t);
         hi = std::max(hi, t);
         ++total;
@@ -168,9 +171,7 @@ MaskErrorResult apply_mask_error(Image& rgba, const MaskErrorSettings& s, uint64
       const double line = hi - cut_depth * (hi - lo);
       std::vector<size_t> beyond;
       for (size_t i = 0; i < n; ++i)
-        if (obj[i] && (static_cast<double>(i % static_cast<size_t>(W)) + 0.5) * dx +
-                              (static_cast<double>(i / static_cast<size_t>(W)) + 0.5) * dy > line)
-          beyond.push_back(i);
+        if (obj[i] && along(i) > line) beyond.push_back(i);
       if (static_cast<double>(total - static_cast<long>(beyond.size())) >= s.keep_min * static_cast<double>(total)) {
         for (const size_t p : beyond) drop_pixel(p);
         res.cut_pixels = static_cast<long>(beyond.size());

@@ -146,6 +146,9 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
   require(s.thin_weight >= 1 && std::isfinite(s.thin_weight), "train seg: the thin-part weight must be >= 1");
   require(s.thin_radius >= 1 && s.thin_radius <= 8, "train seg: the thin-part radius must be in [1, 8] px");
   s.composite.validate();
+  require(s.composite.cutouts == 0 || !s.cutouts.empty(),
+          "train seg: cut-outs need a set of cut-out images (--cutouts)");
+  require(s.cutouts.empty() || s.composite.cutouts > 0, "train seg: --cutouts applies with --cutout-prob above 0");
   SegNet net(s.net, true);  // checks the architecture before any data is read
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
@@ -166,9 +169,6 @@ SegTrainResult train_seg(const SegTrainSettings& settings, const std::function<v
   const BackgroundSet val_backgrounds =
       s.val_backgrounds.empty() ? BackgroundSet() : BackgroundSet(s.val_backgrounds, s.background_side);
   const BackgroundSet& val_photos = s.val_backgrounds.empty() ? backgrounds : val_backgrounds;
-  require(s.composite.cutouts == 0 || !s.cutouts.empty(),
-          "train seg: cut-outs need a set of cut-out images (--cutouts)");
-  require(s.cutouts.empty() || s.composite.cutouts > 0, "train seg: --cutouts applies with --cutout-prob above 0");
   const BackgroundSet cutouts = s.cutouts.empty() ? BackgroundSet() : BackgroundSet(s.cutouts, s.background_side, true);
 
   // The validation composites, once: item k shows a seeded pair on the background drawn from stream kValStream + k.
