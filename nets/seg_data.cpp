@@ -239,6 +239,18 @@ void fill_procedural(Image& bg, ProceduralBackground kind, const Rgb& near, doub
     for (float& v : bg.data) v = clamp01(v + sigma * noise.normal());
 }
 
+/// Adds the bilinear sample of channels 0..C-1 at pixel-centre coordinates (fx, fy), clamped to the image, to acc.
+template <int C>
+void add_bilinear(const Image& img, double fx, double fy, double* acc) {
+  fx = std::clamp(fx, 0.0, img.width - 1.0), fy = std::clamp(fy, 0.0, img.height - 1.0);
+  const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+  const int x1 = std::min(x0 + 1, img.width - 1), y1 = std::min(y0 + 1, img.height - 1);
+  const double ax = fx - x0, ay = fy - y0;
+  for (int c = 0; c < C; ++c)
+    acc[c] += (1 - ay) * ((1 - ax) * img.at(x0, y0, c) + ax * img.at(x1, y0, c)) +
+              ay * ((1 - ax) * img.at(x0, y1, c) + ax * img.at(x1, y1, c));
+}
+
 /// A crop of a photo, resampled to the canvas and jittered.
 void fill_photo(Image& bg, const Image& photo, double jitter, Rng& rng) {
   const int W = bg.width, H = bg.height, PW = photo.width, PH = photo.height;
@@ -257,16 +269,8 @@ void fill_photo(Image& bg, const Image& photo, double jitter, Rng& rng) {
       const int xs = flip ? W - 1 - x : x;
       double acc[3] = {0, 0, 0};
       for (int j = 0; j < ny; ++j)
-        for (int i = 0; i < nx; ++i) {
-          const double fx = std::clamp(ox + (xs + (i + 0.5) / nx) * sx - 0.5, 0.0, PW - 1.0);
-          const double fy = std::clamp(oy + (y + (j + 0.5) / ny) * sy - 0.5, 0.0, PH - 1.0);
-          const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
-          const int x1 = std::min(x0 + 1, PW - 1), y1 = std::min(y0 + 1, PH - 1);
-          const double ax = fx - x0, ay = fy - y0;
-          for (int c = 0; c < 3; ++c)
-            acc[c] += (1 - ay) * ((1 - ax) * photo.at(x0, y0, c) + ax * photo.at(x1, y0, c)) +
-                      ay * ((1 - ax) * photo.at(x0, y1, c) + ax * photo.at(x1, y1, c));
-        }
+        for (int i = 0; i < nx; ++i)
+          add_bilinear<3>(photo, ox + (xs + (i + 0.5) / nx) * sx - 0.5, oy + (y + (j + 0.5) / ny) * sy - 0.5, acc);
       for (int c = 0; c < 3; ++c) bg.at(x, y, c) = clamp01(acc[c] / (nx * ny) * tint[static_cast<size_t>(c)]);
     }
 }
@@ -353,13 +357,7 @@ void add_cutouts(Image& bg, const BackgroundSet& cutouts, const SegCompositeSett
             const double v = (y + (j + 0.5) / m - (cy - ch / 2)) / scale - 0.5;
             if (flip) u = cut.width - 1 - u;
             if (u < -0.5 || v < -0.5 || u > cut.width - 0.5 || v > cut.height - 0.5) continue;
-            const double fu = std::clamp(u, 0.0, cut.width - 1.0), fv = std::clamp(v, 0.0, cut.height - 1.0);
-            const int u0 = static_cast<int>(fu), v0 = static_cast<int>(fv);
-            const int u1 = std::min(u0 + 1, cut.width - 1), v1 = std::min(v0 + 1, cut.height - 1);
-            const double au = fu - u0, av = fv - v0;
-            for (int c = 0; c < 4; ++c)
-              acc[c] += (1 - av) * ((1 - au) * cut.at(u0, v0, c) + au * cut.at(u1, v0, c)) +
-                        av * ((1 - au) * cut.at(u0, v1, c) + au * cut.at(u1, v1, c));
+            add_bilinear<4>(cut, u, v, acc);
           }
         const double inv = 1.0 / (m * m), a = acc[3] * inv;
         if (a <= 0) continue;
