@@ -118,6 +118,12 @@ std::function<int()> setup_train_pose(CLI::App& app) {
       ->capture_default_str()
       ->check(in_range(0.0, 1.0));
   add_mask_error_options(app, s.mask_error);
+  app.add_option("--ema", s.ema,
+                 "keep an exponential moving average of the weights with this decay per step (e.g. 0.999; 0 = off): "
+                 "validation scores it and the model file holds it; the raw weights' scores go to the curve's *_raw "
+                 "columns")
+      ->capture_default_str()
+      ->check(in_range(0, 1));
   app.add_option("--seed", s.seed, "seed of the initialisation, of every batch and of the augmentation")
       ->capture_default_str();
   app.add_option("--init", s.init,
@@ -164,14 +170,16 @@ std::function<int()> setup_train_pose(CLI::App& app) {
       bar.update(e.step);
       if (e.validated) {
         char line[256];
-        std::snprintf(line, sizeof line, "step %ld/%ld  L_cam %.5f  lr %.2e  val: L_cam %.5f d3D %.4f d2D %.3f px  (%.0f s)",
-                      e.step, e.total, e.loss, e.lr, e.val.loss, e.val.d3d, e.val.d2d, e.seconds);
+        char raw[64] = "";
+        if (e.averaged) std::snprintf(raw, sizeof raw, " (raw weights: d3D %.4f d2D %.3f px)", e.val_raw.d3d, e.val_raw.d2d);
+        std::snprintf(line, sizeof line, "step %ld/%ld  L_cam %.5f  lr %.2e  val: L_cam %.5f d3D %.4f d2D %.3f px%s  (%.0f s)",
+                      e.step, e.total, e.loss, e.lr, e.val.loss, e.val.d3d, e.val.d2d, raw, e.seconds);
         bar.print_line(stderr, line);
       }
     });
     bar.finish();
     if (!root) return int(kOk);
-    const Json j = {{"model", r.model},       {"csv", r.csv},
+    Json j = {{"model", r.model},       {"csv", r.csv},
                     {"plot", r.plot},         {"steps", r.steps},
                     {"start_step", r.start_step}, {"seconds", r.seconds},
                     {"total_seconds", r.total_seconds},
@@ -179,6 +187,8 @@ std::function<int()> setup_train_pose(CLI::App& app) {
                     {"train_azimuth_ce", r.train_azimuth_ce},
                     {"train_centre_loss", r.train_centre_loss},
                     {"val", {{"loss", r.val.loss}, {"d3d", r.val.d3d}, {"d2d", r.val.d2d}, {"items", r.val.items}}}};
+    if (s.ema > 0)
+      j["val_raw"] = {{"loss", r.val_raw.loss}, {"d3d", r.val_raw.d3d}, {"d2d", r.val_raw.d2d}, {"items", r.val_raw.items}};
     if (o->json)
       std::cout << j.dump(2) << '\n';
     else

@@ -98,6 +98,20 @@ void Checkpoint::get_optimizer(Optimizer& opt) const {
   opt.deserialize(s);
 }
 
+void Checkpoint::put_average(const WeightAverage& average) {
+  StateBlob s = average.serialize();
+  header["weight_average"] = s.meta;
+  for (auto& b : s.buffers) set_block(b.first, std::move(b.second));
+}
+
+void Checkpoint::get_average(WeightAverage& average) const {
+  if (!header.contains("weight_average")) throw IoError("checkpoint has no weight average");
+  StateBlob s;
+  s.meta = header.at("weight_average");
+  s.buffers.emplace_back("ema", block("ema"));
+  average.deserialize(s);
+}
+
 void save_checkpoint(const std::string& path, const Checkpoint& ck) {
   Json header = ck.header;
   Json table = Json::array();

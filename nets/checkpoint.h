@@ -36,6 +36,10 @@ struct Checkpoint {
   /// Store / restore an optimiser's state (header["optimizer"] + its buffers as blocks).
   void put_optimizer(const Optimizer& opt);
   void get_optimizer(Optimizer& opt) const;
+  /// Store / restore a weight average (header["weight_average"] + block "ema"); get_average throws IoError when
+  /// the checkpoint has none or its decay or size differs.
+  void put_average(const WeightAverage& average);
+  void get_average(WeightAverage& average) const;
 };
 
 /// Atomic write (temporary file + rename). Non-finite values in a block are refused (InvalidInput).

@@ -174,6 +174,42 @@ void Optimizer::deserialize(const StateBlob& blob) {
   }
 }
 
+WeightAverage::WeightAverage(double decay, const float* w, size_t n) : decay_(decay), a_(w, w + n) {
+  if (!(decay > 0 && decay < 1)) throw InvalidInput("weight average: the decay must be in (0, 1)");
+}
+
+double WeightAverage::decay_at(long k) const {
+  return std::min(decay_, static_cast<double>(1 + k) / static_cast<double>(10 + k));
+}
+
+void WeightAverage::update(const float* w) {
+  ++k_;
+  const double d = decay_at(k_);
+  const auto keep = static_cast<float>(d), take = static_cast<float>(1.0 - d);
+  for (size_t i = 0; i < a_.size(); ++i) a_[i] = keep * a_[i] + take * w[i];
+}
+
+StateBlob WeightAverage::serialize() const {
+  StateBlob b;
+  b.meta = {{"decay", decay_}, {"updates", k_}, {"n", a_.size()}};
+  b.buffers.emplace_back("ema", a_);
+  return b;
+}
+
+void WeightAverage::deserialize(const StateBlob& blob) {
+  try {
+    if (blob.meta.at("decay").get<double>() != decay_)
+      throw IoError("weight average state has decay " + std::to_string(blob.meta.at("decay").get<double>()) +
+                    ", the run asks for " + std::to_string(decay_));
+    const auto* a = blob.find("ema");
+    if (!a || a->size() != a_.size()) throw IoError("weight average state: buffer missing or of the wrong size");
+    k_ = blob.meta.at("updates").get<long>();
+    a_ = *a;
+  } catch (const Json::exception& e) {
+    throw IoError(std::string("weight average state: malformed (") + e.what() + ")");
+  }
+}
+
 template <typename T>
 static double clip_norm_impl(T* g, size_t n, double max_norm) {
   double s = 0;

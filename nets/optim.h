@@ -1,5 +1,5 @@
 // Optimisers over the flat parameter buffer (Adam, SGD with momentum), weight decay, learning-rate schedules,
-// gradient clipping, and the (de)serialisation of optimiser state for checkpoints.
+// gradient clipping, the weights' moving average, and the (de)serialisation of optimiser state for checkpoints.
 #pragma once
 
 #include "core/files.h"
@@ -86,6 +86,31 @@ class Optimizer {
   size_t n_;
   long t_ = 0;
   std::vector<float> m_, v_;  // Adam moments / SGD momentum buffer (m_)
+};
+
+/// Exponential moving average of a parameter buffer (Polyak averaging; `train pose --ema DECAY`). It starts as the
+/// weights it is constructed with; update k (k = 1, 2, ...) sets a = d_k a + (1 - d_k) w with
+/// d_k = min(decay, (1 + k) / (10 + k)), the warm-up of TensorFlow's ExponentialMovingAverage, so that the first
+/// updates of a run from random weights are not dominated by them. Element-wise in index order: deterministic.
+class WeightAverage {
+ public:
+  /// decay in (0, 1) (InvalidInput otherwise); w: the n starting weights.
+  WeightAverage(double decay, const float* w, size_t n);
+  void update(const float* w);
+  /// The decay update k uses (k >= 1).
+  [[nodiscard]] double decay_at(long k) const;
+  [[nodiscard]] const std::vector<float>& values() const { return a_; }
+  [[nodiscard]] long updates() const { return k_; }
+  [[nodiscard]] double decay() const { return decay_; }
+  /// Decay, update count and the average ("ema" buffer), exactly.
+  [[nodiscard]] StateBlob serialize() const;
+  /// Restore from serialize(); IoError when the size or the decay differs.
+  void deserialize(const StateBlob& blob);
+
+ private:
+  double decay_;
+  long k_ = 0;
+  std::vector<float> a_;
 };
 
 /// Scale g so that its L2 norm is at most max_norm (no-op when max_norm <= 0 or the norm is smaller).

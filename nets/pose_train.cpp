@@ -41,6 +41,7 @@ Json settings_json(const PoseTrainSettings& s) {
   if (s.reframe.enabled()) j["reframe"] = s.reframe.to_json();
   if (s.mask_error.enabled()) j["mask_error"] = s.mask_error.to_json();
   if (s.net.centre_head) j["centre_weight"] = s.centre_weight;
+  if (s.ema > 0) j["ema"] = s.ema;
   return j;
 }
 
@@ -154,9 +155,10 @@ PoseScores validate(const std::vector<PoseNet*>& nets, const ValSet& v) {
   return total;
 }
 
-void write_curve(const std::string& csv, const std::string& svg, const Json& curve) {
+/// Rows: step, train loss, val L_cam, d3D, d2D, lr, seconds, and with a weight average the raw weights' d3D, d2D.
+void write_curve(const std::string& csv, const std::string& svg, const Json& curve, bool averaged) {
   std::ostringstream o;
-  o << "step,train_loss,val_loss,val_d3d,val_d2d,lr,seconds\n";
+  o << "step,train_loss,val_loss,val_d3d,val_d2d,lr,seconds" << (averaged ? ",val_d3d_raw,val_d2d_raw" : "") << "\n";
   std::vector<std::vector<double>> rows;
   for (const auto& r : curve) {
     std::vector<double> row;
@@ -170,8 +172,14 @@ void write_curve(const std::string& csv, const std::string& svg, const Json& cur
     rows.push_back(row);
   }
   write_text_atomic(csv, o.str());
-  write_loss_plot_svg(svg, rows, {"step", "train L_cam", "val L_cam", "val d3D", "val d2D (px)"}, {1, 2, 3, 4},
-                      "pose network: loss (log scale)");
+  if (averaged)
+    write_loss_plot_svg(svg, rows,
+                        {"step", "train L_cam", "val L_cam (average)", "val d3D (average)", "val d2D (px, average)", "lr",
+                         "seconds", "val d3D (raw)", "val d2D (px, raw)"},
+                        {1, 2, 3, 4, 8}, "pose network: loss (log scale)");
+  else
+    write_loss_plot_svg(svg, rows, {"step", "train L_cam", "val L_cam", "val d3D", "val d2D (px)"}, {1, 2, 3, 4},
+                        "pose network: loss (log scale)");
 }
 
 }  // namespace
@@ -233,6 +241,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   require(s.reframe.camera == ZoomAugmentSettings::CameraFollow::kDistance,
           "train pose: the reframing must move the distance (the network's focal length is DISN's)");
   require(s.centre_weight >= 0 && std::isfinite(s.centre_weight), "train pose: the centre weight must be >= 0");
+  require(s.ema == 0 || (s.ema > 0 && s.ema < 1), "train pose: --ema must be 0 (off) or a decay in (0, 1)");
   PoseNet net(s.net, true);  // checks the network settings before any data is read
   const auto t0 = std::chrono::steady_clock::now();
   DatasetSettings ds;
@@ -275,6 +284,9 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
   os.beta1 = s.beta1;
   os.weight_decay = s.weight_decay;
   Optimizer opt(os, net.n_params());
+  // The weights' moving average starts from the starting weights (--init's or the seeded ones).
+  std::unique_ptr<WeightAverage> average;
+  if (s.ema > 0) average = std::make_unique<WeightAverage>(s.ema, net.params().values.data(), net.n_params());
   LrSchedule lr;
   lr.kind = LrSchedule::Kind::kCosine;
   lr.base = s.lr;
@@ -306,6 +318,7 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     if (stored.is_object() && !stored.contains("zoom") && !s.zoom.enabled()) expected.erase("zoom");
     require_header_match(ck, "settings", expected, state_path);
     TrainingProgress done = restore_training_state(ck, net.params().values.data(), net.n_params(), opt);
+    if (average) ck.get_average(*average);
     step = done.step;
     prior_seconds = done.seconds;
     curve = std::move(done.curve);
@@ -376,19 +389,39 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
     if (s.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.params().size(), s.grad_clip);
     const double rate = lr.at(step);
     opt.step(net.params().values.data(), net.params().grads.data(), rate);
+    if (average) average->update(net.params().values.data());
     ++step;
     ++interval_n;
     // Rank 0 decides when time is up, so that every rank stops after the same step.
     if (s.time_limit_seconds > 0 && comm.broadcast(elapsed() > s.time_limit_seconds)) stop = true;
     PoseTrainEvent ev{step, s.steps, loss, rate, prior_seconds + elapsed()};
     Json row = {step, loss, nullptr, nullptr, nullptr, rate, ev.seconds};
+    if (average) {
+      row.push_back(nullptr);
+      row.push_back(nullptr);
+    }
     if ((step % s.val_every == 0 || step == s.steps || stop) && comm.is_root()) {
       ev.validated = true;
+      // With a weight average: the raw weights are scored, then the average takes their place (the replicas read
+      // net's values) to be scored and saved as the model, and the raw weights come back for the training state.
+      std::vector<float> raw;
+      if (average) {
+        ev.averaged = true;
+        ev.val_raw = validate(replica_ptrs, val_set);
+        raw.assign(net.params().values.begin(), net.params().values.end());
+        std::copy(average->values().begin(), average->values().end(), net.params().values.begin());
+      }
       ev.val = validate(replica_ptrs, val_set);
+      if (!average) ev.val_raw = ev.val;
       result.val = ev.val;
+      result.val_raw = ev.val_raw;
       row[2] = ev.val.loss;
       row[3] = ev.val.d3d;
       row[4] = ev.val.d2d;
+      if (average) {
+        row[7] = ev.val_raw.d3d;
+        row[8] = ev.val_raw.d2d;
+      }
       curve.push_back(row);
       result.train_azimuth_ce = interval_n > 0 ? interval_ce / static_cast<double>(interval_n) : 0.0;
       result.train_centre_loss = interval_n > 0 ? interval_centre / static_cast<double>(interval_n) : 0.0;
@@ -398,12 +431,20 @@ PoseTrainResult train_pose(const PoseTrainSettings& s, const std::function<void(
       Json training = {{"step", step},       {"seconds", ev.seconds},     {"val_loss", ev.val.loss},
                        {"val_d3d", ev.val.d3d}, {"val_d2d", ev.val.d2d}, {"settings", settings_json(s)},
                        {"data", s.data},     {"val_split", s.val_split}};
-      // Resumable state (parameters + optimizer + curve), then the small model file.
-      save_checkpoint(state_path, training_state_checkpoint("pose_training_state", net.architecture(), settings_json(s),
-                                                            {step, ev.seconds, curve}, net.params().values.data(),
-                                                            net.n_params(), opt));
+      if (average) {
+        training["val_d3d_raw"] = ev.val_raw.d3d;
+        training["val_d2d_raw"] = ev.val_raw.d2d;
+      }
+      // The small model file (the average when there is one), then the resumable state (raw parameters, optimizer,
+      // average, curve).
       save_pose_model(s.out, net, training);
-      write_curve(result.csv, result.plot, curve);
+      if (average) std::copy(raw.begin(), raw.end(), net.params().values.begin());
+      Checkpoint state = training_state_checkpoint("pose_training_state", net.architecture(), settings_json(s),
+                                                   {step, ev.seconds, curve}, net.params().values.data(),
+                                                   net.n_params(), opt);
+      if (average) state.put_average(*average);
+      save_checkpoint(state_path, state);
+      write_curve(result.csv, result.plot, curve, average != nullptr);
     } else {
       curve.push_back(row);
     }

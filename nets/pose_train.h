@@ -63,6 +63,10 @@ struct PoseTrainSettings {
   /// same one).
   std::function<std::vector<Mat3>(const ShapeEntry&)> symmetries;
   std::string symmetry_tag;
+  /// Decay of the weights' exponential moving average (nets/optim.h WeightAverage; 0 = none, e.g. 0.999): when
+  /// set, validation scores the average, the model file holds it, and the raw weights' validation goes to the
+  /// curve's *_raw columns and PoseTrainResult::val_raw. The resumable state keeps both.
+  double ema = 0;
   uint64_t seed = 1;
   /// Start from the parameters of this pose model (fine-tuning) instead of the seeded initialisation: same
   /// architecture, except that the distance range may differ (PoseNet::adopt_parameters re-expresses the distance
@@ -107,6 +111,7 @@ struct PoseTrainResult {
   double seconds = 0;        ///< wall time of this run
   double total_seconds = 0;  ///< including earlier runs that were resumed
   PoseScores val;
+  PoseScores val_raw;           ///< the raw weights' validation with --ema (else equal to val)
   double train_azimuth_ce = 0;  ///< mean azimuth cross-entropy of the last validation interval (0 without the head)
   double train_centre_loss = 0; ///< mean centre-head loss of the last validation interval (0 without the head)
   long symmetric_shapes = 0;    ///< training shapes with at least one symmetry (with a symmetry source)

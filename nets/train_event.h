@@ -25,6 +25,10 @@ struct TrainEvent {
   double loss = 0, lr = 0, seconds = 0;  ///< the step's training loss and rate; wall seconds including resumed runs
   bool validated = false;
   Scores val;
+  /// With a weight average (`--ema`): `val` scores the average (what the model file holds) and val_raw the weights
+  /// the optimiser updates.
+  bool averaged = false;
+  Scores val_raw;
 };
 
 }  // namespace sdfkit

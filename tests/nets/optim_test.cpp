@@ -114,6 +114,45 @@ TEST_CASE("optimizer state round trip continues identically") {
 #include "nets/layers.h"
 #include "nets/loss.h"
 
+TEST_CASE("weight average: warm-up decay, the closed form of a step input, state round trip") {
+  // The warm-up: d_k = min(decay, (1 + k) / (10 + k)).
+  const std::vector<float> zero = {0.f, 0.f}, one = {1.f, 1.f};
+  WeightAverage a(0.5, zero.data(), 2);
+  CHECK(a.decay_at(1) == doctest::Approx(2.0 / 11.0));
+  CHECK(a.decay_at(7) == doctest::Approx(8.0 / 17.0));
+  CHECK(a.decay_at(8) == doctest::Approx(0.5));  // 9 / 18 reaches the decay
+  CHECK(a.decay_at(1000) == doctest::Approx(0.5));
+  // From 0, the input held at 1: a_k = 1 - prod_{j <= k} d_j.
+  double prod = 1;
+  for (long k = 1; k <= 20; ++k) {
+    a.update(one.data());
+    prod *= a.decay_at(k);
+    CHECK(a.values()[0] == doctest::Approx(1.0 - prod).epsilon(1e-6));
+    CHECK(a.values()[1] == a.values()[0]);
+  }
+  CHECK(a.updates() == 20);
+  // A constant input stays where it is.
+  const std::vector<float> c = {0.25f, -3.f};
+  WeightAverage b(0.999, c.data(), 2);
+  for (int k = 0; k < 50; ++k) b.update(c.data());
+  CHECK(b.values()[0] == doctest::Approx(0.25));
+  CHECK(b.values()[1] == doctest::Approx(-3.0));
+  // State round trip continues identically; another decay or size is refused.
+  WeightAverage r(0.5, zero.data(), 2);
+  r.deserialize(a.serialize());
+  a.update(c.data());
+  r.update(c.data());
+  CHECK(r.values() == a.values());
+  CHECK(r.updates() == 21);
+  WeightAverage other(0.9, zero.data(), 2);
+  CHECK_THROWS_AS(other.deserialize(a.serialize()), IoError);
+  const std::vector<float> three = {0.f, 0.f, 0.f};
+  WeightAverage bigger(0.5, three.data(), 3);
+  CHECK_THROWS_AS(bigger.deserialize(a.serialize()), IoError);
+  CHECK_THROWS_AS(WeightAverage(1.0, zero.data(), 2), InvalidInput);
+  CHECK_THROWS_AS(WeightAverage(0.0, zero.data(), 2), InvalidInput);
+}
+
 TEST_CASE("a tiny conv + point-MLP network overfits a tiny batch to near-zero loss") {
   Rng rng(3);
   Sequential<float> net;

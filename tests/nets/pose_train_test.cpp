@@ -12,6 +12,7 @@
 #include <tbb/task_arena.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <filesystem>
@@ -319,6 +320,79 @@ TEST_CASE("train pose --resume accepts a state written before the augmentation a
   save_checkpoint(state, ck);
   s.augment.noise = 0.01;
   CHECK_THROWS_AS(train_pose(s), InvalidInput);
+  fs::remove_all(root);
+}
+
+// --ema: the model file holds the average of the raw weights the state keeps, step by step by the formula of
+// WeightAverage; a run cut after every step and resumed gives the same model as a straight run.
+TEST_CASE("train pose --ema: the model is the weights' moving average, recorded, resumed bit for bit") {
+  const fs::path root = make_pose_dataset();
+  PoseTrainSettings s = tiny_settings(root, (root / "ema.ckpt").string());
+  s.ema = 0.5;
+  s.steps = 4;
+  s.val_every = 1;
+  // Cut after every step (the time limit stops and saves), resumed three times.
+  PoseTrainSettings cut = s;
+  cut.out = (root / "ema_cut.ckpt").string();
+  cut.time_limit_seconds = 1e-9;
+  PoseNet start(s.net, false);
+  start.init(s.seed);
+  std::vector<float> average(start.params().values.begin(), start.params().values.end());
+  WeightAverage formula(s.ema, average.data(), average.size());
+  for (long k = 1; k <= s.steps; ++k) {
+    const PoseTrainResult r = train_pose(cut);
+    REQUIRE(r.steps == k);
+    const Checkpoint state = load_checkpoint(cut.out + ".train.ckpt");
+    const std::vector<float>& raw = state.block("params");
+    const double d = formula.decay_at(k);
+    for (size_t i = 0; i < average.size(); ++i)
+      average[i] = static_cast<float>(d) * average[i] + static_cast<float>(1.0 - d) * raw[i];
+    // The same formula in this file (floating-point contraction may differ by an ulp).
+    const std::vector<float> model = model_params(cut.out);
+    REQUIRE(model.size() == average.size());
+    double worst = 0, moved = 0;
+    for (size_t i = 0; i < model.size(); ++i) {
+      worst = std::max(worst, std::abs(double(model[i]) - average[i]) / (1e-3 + std::abs(average[i])));
+      moved = std::max(moved, std::abs(double(model[i]) - raw[i]));
+    }
+    CHECK(worst < 1e-5);
+    CHECK(moved > 1e-5);  // the average is not the raw weights (Adam moves each weight by about lr per step)
+    average = model;
+    cut.resume = true;
+  }
+  const PoseTrainResult straight = train_pose(s);
+  CHECK(model_params(s.out) == model_params(cut.out));
+  // Both weights are scored and recorded; the curve has the raw columns.
+  Json training;
+  load_pose_model(s.out, &training);
+  CHECK(training.at("settings").at("ema").get<double>() == 0.5);
+  CHECK(training.at("val_d2d").get<double>() == straight.val.d2d);
+  CHECK(training.at("val_d2d_raw").get<double>() == straight.val_raw.d2d);
+  CHECK(straight.val.d2d != straight.val_raw.d2d);
+  std::ifstream csv(straight.csv);
+  std::string header;
+  std::getline(csv, header);
+  CHECK(header == "step,train_loss,val_loss,val_d3d,val_d2d,lr,seconds,val_d3d_raw,val_d2d_raw");
+  // A resume with another decay, or without the average, is refused.
+  s.resume = true;
+  s.ema = 0.9;
+  CHECK_THROWS_AS(train_pose(s), InvalidInput);
+  s.ema = 0;
+  CHECK_THROWS_AS(train_pose(s), InvalidInput);
+  s.ema = 1;
+  CHECK_THROWS_AS(train_pose(s), InvalidInput);
+  // The command: --json reports both validations, the progress line the raw one; a decay of 1 is a one-line error.
+  const std::string cmd = "train pose --data " + root.string() + " --split train --val-split '' --width 2 --feature 16"
+                          " --steps 2 --batch 2 --points 16 --val-every 2 --val-items 2 --symmetry-tol 0 -o " +
+                          (root / "cli.ckpt").string();
+  const test::CliRun r = test::run_sdfkit(cmd + " --ema 0.5 --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const Json j = Json::parse(r.out);
+  CHECK(j.at("val").at("d2d").get<double>() != j.at("val_raw").at("d2d").get<double>());
+  CHECK(r.err.find("(raw weights: d3D") != std::string::npos);
+  const test::CliRun bad = test::run_sdfkit(cmd + " --ema 1");
+  CHECK(bad.code != 0);
+  CHECK(bad.err.find("--ema") != std::string::npos);
   fs::remove_all(root);
 }
 
