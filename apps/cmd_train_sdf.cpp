@@ -171,6 +171,12 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
       ->check(positive());
   app.add_option("--val-shapes", s.val_shapes, "validation shapes (view 0 of each)")->capture_default_str();
   app.add_option("--max-shapes", s.max_shapes, "use only the first N training shapes (0 = all)")->capture_default_str();
+  app.add_option("--ema", s.ema,
+                 "keep an exponential moving average of the weights with this decay per step (e.g. 0.999; 0 = off): "
+                 "validation scores it and the model's parameters are it; the raw weights' scores go to the curve's "
+                 "*_raw columns")
+      ->capture_default_str()
+      ->check(in_range(0, 1));
   app.add_option("--seed", s.seed, "seed of the initialisation and of every batch")->capture_default_str();
   app.add_flag("--resume", s.resume, "continue from MODEL when it exists (same settings and seed; bit-exact continuation)");
   app.add_option("--minutes", o->minutes, "stop after this many minutes of training, saving the model (0 = no limit)")
@@ -215,27 +221,32 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
       if (!root) return;
       bar.update(e.step);
       if (e.validated) {
-        char line[256];
+        char line[320], raw[96] = "";
+        if (e.averaged)
+          std::snprintf(raw, sizeof raw, " (raw weights: loss %.4f sample-IoU %.4f)", e.val_raw.loss,
+                        e.val_raw.sample_iou);
         std::snprintf(line, sizeof line,
-                      "step %ld/%ld  loss %.4f  lr %.2e  val: loss %.4f sign-acc %.4f sample-IoU %.4f  (%.0f s)", e.step,
-                      e.total, e.loss, e.lr, e.val.loss, e.val.sign_accuracy, e.val.sample_iou, e.seconds);
+                      "step %ld/%ld  loss %.4f  lr %.2e  val: loss %.4f sign-acc %.4f sample-IoU %.4f%s  (%.0f s)", e.step,
+                      e.total, e.loss, e.lr, e.val.loss, e.val.sign_accuracy, e.val.sample_iou, raw, e.seconds);
         bar.print_line(stderr, line);
       }
     });
     bar.finish();
     if (!root) return int(kOk);
     if (o->json) {
-      std::cout << Json{{"model", r.model},
-                        {"csv", r.csv},
-                        {"plot", r.plot},
-                        {"steps", r.steps},
-                        {"start_step", r.start_step},
-                        {"seconds", r.seconds},
-                        {"train_loss", r.final_loss},
-                        {"val", {{"loss", r.val.loss}, {"sign_accuracy", r.val.sign_accuracy},
-                                 {"sample_iou", r.val.sample_iou}, {"shapes", r.val.shapes}}}}
-                       .dump(2)
-                << '\n';
+      Json j = {{"model", r.model},
+                {"csv", r.csv},
+                {"plot", r.plot},
+                {"steps", r.steps},
+                {"start_step", r.start_step},
+                {"seconds", r.seconds},
+                {"train_loss", r.final_loss},
+                {"val", {{"loss", r.val.loss}, {"sign_accuracy", r.val.sign_accuracy},
+                         {"sample_iou", r.val.sample_iou}, {"shapes", r.val.shapes}}}};
+      if (s.ema > 0)
+        j["val_raw"] = {{"loss", r.val_raw.loss}, {"sign_accuracy", r.val_raw.sign_accuracy},
+                        {"sample_iou", r.val_raw.sample_iou}, {"shapes", r.val_raw.shapes}};
+      std::cout << j.dump(2) << '\n';
     } else {
       std::cout << "trained " << r.steps - r.start_step << " steps (to step " << r.steps << ") in " << r.seconds
                 << " s; validation sign accuracy " << r.val.sign_accuracy << ", sample IoU " << r.val.sample_iou

@@ -226,6 +226,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   }
 
   require(st.camera_jitter_deg >= 0 && st.camera_jitter_deg <= 180, "train sdf: --camera-jitter must be in [0, 180]");
+  require(st.ema == 0 || (st.ema > 0 && st.ema < 1), "train sdf: --ema must be 0 (off) or a decay in (0, 1)");
   require(st.zoom.camera == ZoomAugmentSettings::CameraFollow::kFocal,
           "train sdf: the zoom augmentation must move the intrinsics (the network projects with the camera)");
   st.reframe.validate();
@@ -284,6 +285,9 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
   os.beta1 = 0.5;
   os.weight_decay = st.weight_decay;
   Optimizer opt(os, net.n_params());
+  // The weights' moving average starts from the starting weights (--init's or the seeded ones).
+  std::unique_ptr<WeightAverage> average;
+  if (st.ema > 0) average = std::make_unique<WeightAverage>(st.ema, net.params().values.data(), net.n_params());
   LrSchedule sched;
   sched.kind = st.lr_min < st.lr ? LrSchedule::Kind::kCosine : LrSchedule::Kind::kConstant;
   sched.base = st.lr;
@@ -301,6 +305,9 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
                                      "val_sample_iou"};
   // With the critic: the generator's adversarial loss and the critic's loss (mean over the logged steps).
   if (adv.enabled()) header.insert(header.end(), {"adv_generator", "adv_critic"});
+  // With a weight average: the raw weights' validation (the other columns score the average).
+  const size_t raw_column = header.size();
+  if (average) header.insert(header.end(), {"val_loss_raw", "val_sign_accuracy_raw", "val_sample_iou_raw"});
   std::unique_ptr<PatchCritic> critic;
   if (adv.enabled()) critic = std::make_unique<PatchCritic>(adv.critic, st.seed ^ 0xc717c5ULL);
   std::vector<std::vector<double>> rows;
@@ -318,6 +325,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
                            {"occlusion", st.occlusion.to_json()},
                            {"adversarial", adv.to_json()}};
   if (st.mask_error.enabled()) train_json["mask_error"] = st.mask_error.to_json();
+  if (average) train_json["ema"] = st.ema;
   if (st.net.reads_context()) {
     train_json["context"] = st.context.to_json();
     train_json["context_backgrounds"] = st.context_backgrounds;
@@ -332,9 +340,24 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
       }
     }
     require_header_match(ck, "config", st.net.to_json(), st.out);
-    const auto& p = ck.block("params", static_cast<long>(net.n_params()));
+    const bool averaged = ck.header.contains("weight_average");
+    if (averaged != (average != nullptr))
+      throw InvalidInput(st.out + ": checkpoint was trained " +
+                         (averaged ? "with --ema " + std::to_string(ck.header["weight_average"].value("decay", 0.0))
+                                   : std::string("without --ema")) +
+                         "; resume with the same --ema");
+    // A model with a weight average holds the average as its parameters and the weights training continues as
+    // raw_params.
+    const auto& p = ck.block(averaged ? "raw_params" : "params", static_cast<long>(net.n_params()));
     std::copy(p.begin(), p.end(), net.params().values.begin());
     ck.get_optimizer(opt);
+    if (average) {
+      try {
+        ck.get_average(*average);
+      } catch (const IoError& e) {
+        throw InvalidInput(st.out + ": " + e.what() + "; resume with the same --ema");
+      }
+    }
     const Json& tr = ck.header.at("training");
     step = tr.at("step").get<long>();
     seconds_before = tr.value("seconds", 0.0);
@@ -368,8 +391,17 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     tr["seconds"] = seconds_before + elapsed();
     tr["val"] = {{"loss", v.loss}, {"sign_accuracy", v.sign_accuracy}, {"sample_iou", v.sample_iou},
                  {"shapes", v.shapes}};
+    if (average)
+      tr["val_raw"] = {{"loss", res.val_raw.loss}, {"sign_accuracy", res.val_raw.sign_accuracy},
+                       {"sample_iou", res.val_raw.sample_iou}, {"shapes", res.val_raw.shapes}};
     ck.header["training"] = tr;
-    ck.set_block("params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
+    if (average) {
+      ck.set_block("params", average->values());
+      ck.set_block("raw_params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
+      ck.put_average(*average);
+    } else {
+      ck.set_block("params", std::vector<float>(net.params().values.begin(), net.params().values.end()));
+    }
     ck.put_optimizer(opt);
     if (critic) put_patch_critic(ck, *critic, "critic_");
     // The curves first, the checkpoint last: a run killed in between resumes from the previous checkpoint and
@@ -547,6 +579,7 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
     if (st.grad_clip > 0) clip_grad_norm(net.params().grads.data(), net.n_params(), st.grad_clip);
     const double lr = sched.at(step);
     opt.step(net.params().values.data(), net.params().grads.data(), lr);
+    if (average) average->update(net.params().values.data());
     ++step;
     interval_loss += loss;
     ++interval_n;
@@ -559,16 +592,29 @@ SdfTrainResult train_sdf(const SdfTrainSettings& st, const std::function<void(co
       std::vector<double> row = {static_cast<double>(step), interval_loss / interval_n, lr, ev.seconds,
                                  std::nan(""), std::nan(""), std::nan("")};
       if (adv.enabled()) row.insert(row.end(), {interval_adv_g / interval_n, interval_adv_d / interval_n});
+      row.resize(header.size(), std::nan(""));
       res.final_loss = interval_loss / interval_n;
       interval_loss = interval_adv_g = interval_adv_d = 0;
       interval_n = 0;
       if (do_val && comm.is_root()) {
-        res.val = validate_sdf(net, *val, st.val_shapes, st.val_points, st.seed + 1);
+        res.val = res.val_raw = validate_sdf(net, *val, st.val_shapes, st.val_points, st.seed + 1);
+        if (average) {
+          // The average in the network's place for its validation, then the raw weights back.
+          std::vector<float> raw(net.params().values.begin(), net.params().values.end());
+          std::copy(average->values().begin(), average->values().end(), net.params().values.begin());
+          res.val = validate_sdf(net, *val, st.val_shapes, st.val_points, st.seed + 1);
+          std::copy(raw.begin(), raw.end(), net.params().values.begin());
+          row[raw_column] = res.val_raw.loss;
+          row[raw_column + 1] = res.val_raw.sign_accuracy;
+          row[raw_column + 2] = res.val_raw.sample_iou;
+          ev.averaged = true;
+        }
         row[4] = res.val.loss;
         row[5] = res.val.sign_accuracy;
         row[6] = res.val.sample_iou;
         ev.validated = true;
         ev.val = res.val;
+        ev.val_raw = res.val_raw;
       }
       rows.push_back(row);
       if (do_val && comm.is_root()) save(step, res.val);

@@ -56,6 +56,11 @@ struct SdfTrainSettings {
   int val_points = 4096;            ///< samples per validation shape
   int max_shapes = 0;               ///< use only the first N training shapes (0 = all)
   uint64_t seed = 1;
+  /// Decay of the weights' exponential moving average (nets/optim.h WeightAverage; 0 = none, e.g. 0.999): when set,
+  /// validation scores the average and the model's parameters are the average (block "params"; the raw weights,
+  /// which a resume continues, are block "raw_params"); the raw weights' validation goes to the curve's *_raw columns
+  /// and SdfTrainResult::val_raw.
+  double ema = 0;
   bool resume = false;              ///< continue from `out` if it exists
   /// Start from this model's weights (same configuration, or the same one without the mask channel and/or the
   /// mirror features this network has: SdfNet::adopt_parameters) instead of the seeded initialisation; fresh
@@ -110,6 +115,7 @@ struct SdfTrainResult {
   double seconds = 0;       ///< wall time of this run
   double final_loss = 0;    ///< mean training loss of the last validation interval
   SdfValidation val;        ///< last validation
+  SdfValidation val_raw;    ///< the raw weights' last validation with a weight average (else equal to val)
   std::string model, csv, plot;
 };
 

@@ -348,6 +348,75 @@ TEST_CASE("zoomed training: recorded in the model, changes the training, resumes
   fs::remove_all(root);
 }
 
+// --ema: the model's parameters are the moving average of the raw weights (block raw_params), step by step by the
+// formula of WeightAverage; resumed runs continue both bit for bit; a resume must keep the decay.
+TEST_CASE("training with a weight average: the model is the average, recorded, resumes bit for bit") {
+  const fs::path root = make_torus_dataset("sdf_train_ema");
+  SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);  // constant rate: runs of any length agree
+  st.ema = 0.5;
+  st.val_every = 1;
+  SdfNet start(st.net);
+  start.init(st.seed);
+  std::vector<float> average(start.params().values.begin(), start.params().values.end());
+  const WeightAverage formula(st.ema, average.data(), average.size());
+  st.out = (root / "steps.ckpt").string();
+  for (long k = 1; k <= 3; ++k) {  // one step per run, each resuming the previous
+    st.steps = k;
+    st.resume = k > 1;
+    const SdfTrainResult r = train_sdf(st);
+    REQUIRE(r.steps == k);
+    const Checkpoint ck = load_checkpoint(st.out);
+    const std::vector<float>& raw = ck.block("raw_params");
+    const std::vector<float>& model = ck.block("params");
+    REQUIRE(model.size() == average.size());
+    const double d = formula.decay_at(k);
+    double worst = 0, moved = 0;
+    for (size_t i = 0; i < model.size(); ++i) {
+      const double expected = d * average[i] + (1 - d) * raw[i];
+      worst = std::max(worst, std::abs(model[i] - expected) / (1e-3 + std::abs(expected)));
+      moved = std::max(moved, double(std::abs(model[i] - raw[i])));
+    }
+    CHECK(worst < 1e-5);
+    CHECK(moved > 1e-5);
+    average = model;
+    // What recon reads is the average.
+    const auto net = load_sdf_model(st.out);
+    CHECK(std::equal(model.begin(), model.end(), net->params().values.begin()));
+  }
+  // Straight and split runs agree in both blocks; the validation of both weights is recorded.
+  const SdfTrainResult r = straight_and_split(st, root, "ema");
+  CHECK(params(root, "ema_straight.ckpt") == params(root, "ema_split.ckpt"));
+  CHECK(load_checkpoint((root / "ema_straight.ckpt").string()).block("raw_params") ==
+        load_checkpoint((root / "ema_split.ckpt").string()).block("raw_params"));
+  CHECK(r.val.loss != r.val_raw.loss);
+  const Json training = load_checkpoint((root / "ema_split.ckpt").string()).header.at("training");
+  CHECK(training.at("ema").get<double>() == 0.5);
+  CHECK(training.at("val_raw").at("loss").get<double>() == r.val_raw.loss);
+  std::ifstream csv(r.csv);
+  std::string header;
+  std::getline(csv, header);
+  CHECK(header.find(",val_loss_raw,val_sign_accuracy_raw,val_sample_iou_raw") != std::string::npos);
+  // A resume without the average, with another decay, or of a run without one, is refused.
+  st.out = (root / "ema_split.ckpt").string();
+  st.resume = true;
+  st.steps = 7;
+  st.ema = 0;
+  CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  st.ema = 0.9;
+  CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  st.ema = 1;
+  CHECK_THROWS_AS(train_sdf(st), InvalidInput);
+  SdfTrainSettings plain = tiny_run(root, SdfVariant::kTwoStream);
+  plain.out = (root / "plain.ckpt").string();
+  plain.steps = 2;
+  train_sdf(plain);
+  plain.ema = 0.5;
+  plain.resume = true;
+  plain.steps = 3;
+  CHECK_THROWS_AS(train_sdf(plain), InvalidInput);
+  fs::remove_all(root);
+}
+
 TEST_CASE("reframed training: recorded in the model, changes the training, resumes bit for bit") {
   const fs::path root = make_torus_dataset("sdf_train_reframe");
   SdfTrainSettings st = tiny_run(root, SdfVariant::kTwoStream);
@@ -503,6 +572,15 @@ TEST_CASE("train sdf CLI: the object-channel flags train, conflicting ones fail 
     CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
     CHECK(!fs::exists(bad));
   }
+  // --ema: --json reports both validations, the progress line the raw one; a decay of 1 is a one-line error.
+  const test::CliRun ema = test::run_sdfkit(base + "--ema 0.5 -o " + (root / "ema.ckpt").string() + " --json");
+  REQUIRE_MESSAGE(ema.code == 0, ema.err);
+  const Json j = Json::parse(ema.out);
+  CHECK(j.at("val").at("loss").get<double>() != j.at("val_raw").at("loss").get<double>());
+  CHECK(ema.err.find("(raw weights: loss") != std::string::npos);
+  const test::CliRun one = test::run_sdfkit(base + "--ema 1 -o " + (root / "bad.ckpt").string());
+  CHECK(one.code == 1);
+  CHECK(std::count(one.err.begin(), one.err.end(), '\n') == 1);
   fs::remove_all(root);
 }
 
