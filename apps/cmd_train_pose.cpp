@@ -118,12 +118,7 @@ std::function<int()> setup_train_pose(CLI::App& app) {
       ->capture_default_str()
       ->check(in_range(0.0, 1.0));
   add_mask_error_options(app, s.mask_error);
-  app.add_option("--ema", s.ema,
-                 "keep an exponential moving average of the weights with this decay per step (e.g. 0.999; 0 = off): "
-                 "validation scores it and the model file holds it; the raw weights' scores go to the curve's *_raw "
-                 "columns")
-      ->capture_default_str()
-      ->check(in_range(0, 1));
+  add_ema_option(app, s.ema);
   app.add_option("--seed", s.seed, "seed of the initialisation, of every batch and of the augmentation")
       ->capture_default_str();
   app.add_option("--init", s.init,

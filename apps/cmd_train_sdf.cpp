@@ -171,12 +171,7 @@ std::function<int()> setup_train_sdf(CLI::App& app) {
       ->check(positive());
   app.add_option("--val-shapes", s.val_shapes, "validation shapes (view 0 of each)")->capture_default_str();
   app.add_option("--max-shapes", s.max_shapes, "use only the first N training shapes (0 = all)")->capture_default_str();
-  app.add_option("--ema", s.ema,
-                 "keep an exponential moving average of the weights with this decay per step (e.g. 0.999; 0 = off): "
-                 "validation scores it and the model's parameters are it; the raw weights' scores go to the curve's "
-                 "*_raw columns")
-      ->capture_default_str()
-      ->check(in_range(0, 1));
+  add_ema_option(app, s.ema);
   app.add_option("--seed", s.seed, "seed of the initialisation and of every batch")->capture_default_str();
   app.add_flag("--resume", s.resume, "continue from MODEL when it exists (same settings and seed; bit-exact continuation)");
   app.add_option("--minutes", o->minutes, "stop after this many minutes of training, saving the model (0 = no limit)")

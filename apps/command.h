@@ -91,6 +91,8 @@ extern const char* const kSegSureHelp;
 
 /// `--aug-mask-error` and `--mask-error-edge`, the segmentation-error augmentation of `train sdf` and `train pose`.
 void add_mask_error_options(CLI::App& app, MaskErrorAugmentSettings& settings);
+/// `--ema`, the weights' moving average of `train sdf` and `train pose` (0 = off, else a decay in (0, 1)).
+void add_ema_option(CLI::App& app, double& decay);
 std::string seg_sure_default(const FramingSettings& framing);
 void seg_sure_setting(const CLI::App& app, const std::string& value, FramingSettings& framing);
 

@@ -219,4 +219,13 @@ void add_mask_error_options(CLI::App& app, MaskErrorAugmentSettings& settings) {
       ->check(in_range(0.0, 1.0));
 }
 
+void add_ema_option(CLI::App& app, double& decay) {
+  app.add_option("--ema", decay,
+                 "keep an exponential moving average of the weights with this decay per step (e.g. 0.999; 0 = off): "
+                 "validation scores it and the model holds it; the raw weights' scores go to the loss curve's *_raw "
+                 "columns")
+      ->capture_default_str()
+      ->check(in_range(0, 1));
+}
+
 }  // namespace sdfkit::app
