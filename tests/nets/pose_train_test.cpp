@@ -396,6 +396,29 @@ TEST_CASE("train pose --ema: the model is the weights' moving average, recorded,
   fs::remove_all(root);
 }
 
+// A fresh benchmark's symmetries take minutes to find: train pose says so once, and not when every shape has its
+// cache (symmetries.json, written beside gt.obj by the first run).
+TEST_CASE("train pose CLI: one notice while the training shapes' symmetries are found, none once they are cached") {
+  const fs::path root = make_pose_dataset();
+  const std::string cube =
+      "v -0.3 -0.3 -0.3\nv 0.3 -0.3 -0.3\nv 0.3 0.3 -0.3\nv -0.3 0.3 -0.3\n"
+      "v -0.3 -0.3 0.3\nv 0.3 -0.3 0.3\nv 0.3 0.3 0.3\nv -0.3 0.3 0.3\n"
+      "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 7 3\nf 4 8 7\nf 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n";
+  for (const std::string id : {"car/a", "lamp/b"}) write_text_atomic((root / id / "gt.obj").string(), cube);
+  const std::string cmd = "train pose --data " + root.string() + " --split train --val-split '' --width 2 --feature 16"
+                          " --steps 1 --batch 2 --points 16 --val-items 2 -o ";
+  const std::string notice = "vertical-turn symmetries";
+  const test::CliRun first = test::run_sdfkit(cmd + (root / "first.ckpt").string());
+  REQUIRE_MESSAGE(first.code == 0, first.err);
+  CHECK(first.err.find(notice) != std::string::npos);
+  CHECK(first.err.find(notice) == first.err.rfind(notice));  // once, not per shape
+  for (const std::string id : {"car/a", "lamp/b"}) CHECK(fs::exists(root / id / "symmetries.json"));
+  const test::CliRun second = test::run_sdfkit(cmd + (root / "second.ckpt").string());
+  REQUIRE_MESSAGE(second.code == 0, second.err);
+  CHECK(second.err.find(notice) == std::string::npos);
+  fs::remove_all(root);
+}
+
 // Issue 6: eval-pose's symmetry-aware scores. With one view per shape each category holds one item, so the score
 // modulo the half turn must be the smaller of the plain score and the score against the half-turned true camera
 // (the same images with every camera replaced by its twin, R -> R rot_y(180)).
