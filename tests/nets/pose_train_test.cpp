@@ -400,11 +400,8 @@ TEST_CASE("train pose --ema: the model is the weights' moving average, recorded,
 // cache (symmetries.json, written beside gt.obj by the first run).
 TEST_CASE("train pose CLI: one notice while the training shapes' symmetries are found, none once they are cached") {
   const fs::path root = make_pose_dataset();
-  const std::string cube =
-      "v -0.3 -0.3 -0.3\nv 0.3 -0.3 -0.3\nv 0.3 0.3 -0.3\nv -0.3 0.3 -0.3\n"
-      "v -0.3 -0.3 0.3\nv 0.3 -0.3 0.3\nv 0.3 0.3 0.3\nv -0.3 0.3 0.3\n"
-      "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 7 3\nf 4 8 7\nf 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n";
-  for (const std::string id : {"car/a", "lamp/b"}) write_text_atomic((root / id / "gt.obj").string(), cube);
+  for (const std::string id : {"car/a", "lamp/b"})
+    write_mesh((root / id / "gt.obj").string(), make_box(Vec3(-0.3, -0.3, -0.3), Vec3(0.3, 0.3, 0.3)));
   const std::string cmd = "train pose --data " + root.string() + " --split train --val-split '' --width 2 --feature 16"
                           " --steps 1 --batch 2 --points 16 --val-items 2 -o ";
   const std::string notice = "vertical-turn symmetries";
