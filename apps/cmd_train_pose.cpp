@@ -12,7 +12,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <mutex>
@@ -148,18 +147,21 @@ std::function<int()> setup_train_pose(CLI::App& app) {
     if (o->symmetry_tol > 0) {
       const double tol = o->symmetry_tol;
       // Finding a shape's symmetries reads its gt.obj (a fraction of a second a shape, minutes for a large
-      // benchmark); the result is cached beside it. Say so once, before the first shape without a cache.
+      // benchmark); the result is cached beside it. Say so once, before the first shape whose cache does not
+      // answer (missing, stale, unreadable or without this tolerance).
       auto told = std::make_shared<std::once_flag>();
       const bool is_root = Comm::world().is_root();
       s.symmetries = [tol, told, is_root](const ShapeEntry& shape) {
-        if (is_root && !std::filesystem::exists(ShapeFiles(shape.dir).symmetries))
+        const auto notice = [&] {
+          if (!is_root) return;
           std::call_once(*told, [] {
             std::fprintf(stderr,
                          "train pose: finding the training shapes' vertical-turn symmetries from their gt.obj "
                          "(minutes for thousands of shapes; cached in each shape's symmetries.json)\n");
           });
+        };
         try {
-          return symmetric_rotations(prepared_shape_symmetries(shape.dir, tol));
+          return symmetric_rotations(prepared_shape_symmetries(shape.dir, tol, notice));
         } catch (const std::exception& e) {  // the message names gt.obj (or its cache) already
           throw IoError(std::string(e.what()) + " (finding the shape's symmetries; --symmetry-tol 0 trains without)");
         }

@@ -118,7 +118,8 @@ Mesh read_prepared_source(const std::string& shape_dir, const TextureSampler& te
   return read_prepared_source(prepared_source(shape_dir), textures);
 }
 
-std::vector<RotationSymmetry> prepared_shape_symmetries(const std::string& shape_dir, double tol) {
+std::vector<RotationSymmetry> prepared_shape_symmetries(const std::string& shape_dir, double tol,
+                                                        const std::function<void()>& before_search) {
   require(std::isfinite(tol) && tol > 0, "symmetries: the tolerance must be positive and finite");
   const ShapeFiles files(shape_dir);
   std::error_code ec;
@@ -157,6 +158,7 @@ std::vector<RotationSymmetry> prepared_shape_symmetries(const std::string& shape
   } catch (const std::exception&) {  // an unreadable cache is rebuilt
     cache = Json::object();
   }
+  if (before_search) before_search();
   const Mesh gt = read_mesh(files.gt);  // errors name the file
   std::vector<RotationSymmetry> found;
   try {

@@ -10,6 +10,7 @@
 #include "sdf/samples.h"
 #include "sdf/sparse_sdf.h"
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -87,7 +88,10 @@ Mesh read_prepared_source(const PreparedSource& source, const TextureSampler& te
 /// them reads and tests the whole mesh: about 0.1 s per benchmark shape, minutes for a training split). A missing,
 /// unreadable or stale cache is recomputed and rewritten atomically; a folder that cannot be written (a read-only
 /// dataset) is just not cached. IoError naming gt.obj when it cannot be read or vertical_symmetries refuses it.
-std::vector<RotationSymmetry> prepared_shape_symmetries(const std::string& shape_dir, double tol);
+/// `before_search`, when given, is called just before the mesh is read and searched, i.e. whenever no cache entry
+/// answers (missing, unreadable, stale, or without `tol`): callers use it to say that a slow step has started.
+std::vector<RotationSymmetry> prepared_shape_symmetries(const std::string& shape_dir, double tol,
+                                                        const std::function<void()>& before_search = {});
 
 /// The settings that a complete shape's norm.json records differently from `settings` (up, grid.voxel_size,
 /// grid.band, grid.sign, grid.sealed, samples.count/offset/edges/uniform/seed, gt.setting, gt.iso), as their

@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -413,6 +414,16 @@ TEST_CASE("train pose CLI: one notice while the training shapes' symmetries are 
   const test::CliRun second = test::run_sdfkit(cmd + (root / "second.ckpt").string());
   REQUIRE_MESSAGE(second.code == 0, second.err);
   CHECK(second.err.find(notice) == std::string::npos);
+  // A cache that does not answer is searched again, with the notice: another tolerance, or a stale entry.
+  const test::CliRun other_tol = test::run_sdfkit(cmd + (root / "third.ckpt").string() + " --symmetry-tol 0.02");
+  REQUIRE_MESSAGE(other_tol.code == 0, other_tol.err);
+  CHECK(other_tol.err.find(notice) != std::string::npos);
+  const fs::path gt = root / "lamp/b/gt.obj";
+  fs::last_write_time(gt, fs::last_write_time(gt) + std::chrono::seconds(5));
+  const test::CliRun stale = test::run_sdfkit(cmd + (root / "fourth.ckpt").string());
+  REQUIRE_MESSAGE(stale.code == 0, stale.err);
+  CHECK(stale.err.find(notice) != std::string::npos);
+  CHECK(stale.err.find(notice) == stale.err.rfind(notice));
   fs::remove_all(root);
 }
 

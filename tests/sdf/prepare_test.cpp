@@ -12,6 +12,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <functional>
 
 using namespace sdfkit;
 namespace fs = std::filesystem;
@@ -200,10 +201,14 @@ TEST_CASE("prepared_shape_symmetries: found once, read back from symmetries.json
       if (s.symmetric) out.push_back(s.degrees);
     return out;
   };
+  // The hook runs exactly when the mesh is searched, i.e. when no cache entry answers.
+  int searches = 0;
+  const std::function<void()> count = [&searches] { ++searches; };
   CHECK_THROWS_WITH_AS(prepared_shape_symmetries(dir.string(), 0.01), doctest::Contains("gt.obj"), IoError);
   const Mesh oblong = make_box(Vec3(-0.5, -0.3, -0.2), Vec3(0.5, 0.3, 0.2));
   write_mesh(files.gt, oblong);
-  const auto first = prepared_shape_symmetries(dir.string(), 0.01);
+  const auto first = prepared_shape_symmetries(dir.string(), 0.01, count);
+  CHECK(searches == 1);
   REQUIRE(first.size() == 3);
   CHECK(symmetric(first) == std::vector<int>{180});
   CHECK(symmetric(first) == symmetric(vertical_symmetries(oblong, 0.01)));
@@ -213,21 +218,25 @@ TEST_CASE("prepared_shape_symmetries: found once, read back from symmetries.json
   // The cache is what a second call reads: an edited entry comes back as it is.
   cache["turns"]["0.01"] = std::vector<int>{90, 270};
   write_json(files.symmetries, cache);
-  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.01)) == std::vector<int>{90, 270});
+  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.01, count)) == std::vector<int>{90, 270});
+  CHECK(searches == 1);
   // Another tolerance is found and added beside it.
-  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.05)) == std::vector<int>{180});
+  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.05, count)) == std::vector<int>{180});
+  CHECK(searches == 2);
   cache = read_json(files.symmetries);
   CHECK(cache.at("turns").size() == 2);
   // A new gt.obj (other size and time): every entry is stale, found again.
   const Mesh square = make_box(Vec3(-0.4, -0.3, -0.4), Vec3(0.4, 0.3, 0.4));
   write_mesh(files.gt, square);
   fs::last_write_time(files.gt, fs::last_write_time(files.gt) + std::chrono::seconds(5));
-  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.01)) == std::vector<int>{90, 180, 270});
+  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.01, count)) == std::vector<int>{90, 180, 270});
+  CHECK(searches == 3);
   cache = read_json(files.symmetries);
   CHECK(cache.at("turns").size() == 1);
   // A corrupt cache is rebuilt; a cache that cannot be written (a folder in its place) is skipped.
   write_text_atomic(files.symmetries, "{");
-  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.01)) == std::vector<int>{90, 180, 270});
+  CHECK(symmetric(prepared_shape_symmetries(dir.string(), 0.01, count)) == std::vector<int>{90, 180, 270});
+  CHECK(searches == 4);
   CHECK(read_json(files.symmetries).at("turns").at("0.01").size() == 3);
   fs::remove(files.symmetries);
   fs::create_directories(files.symmetries);
