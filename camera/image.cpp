@@ -47,9 +47,36 @@ void check_png_chunks(const std::string& path) {
   }
 }
 
+/// `img` as displayed under TIFF/EXIF orientation `o` (2-8): each displayed pixel (x, y) takes the stored pixel
+/// the orientation puts there (2: mirrored left to right, 3: turned 180 degrees, 4: mirrored top to bottom,
+/// 5: transposed, 6: to be turned 90 degrees clockwise, 7: transversed, 8: to be turned 90 degrees
+/// counter-clockwise; TIFF 6.0 "Orientation"). Written out rather than OpenImageIO's ImageBufAlgo::reorient,
+/// which in Debian 12's version (2.4) swaps orientations 5 and 7 (OpenImageIO issue 4661).
+Image upright(const Image& img, int o) {
+  const int w = img.width, h = img.height, c = img.channels;
+  const bool turned = o >= 5;
+  Image out(turned ? h : w, turned ? w : h, c);
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x) {
+      int sx = x, sy = y;
+      switch (o) {
+        case 2: sx = w - 1 - x; break;
+        case 3: sx = w - 1 - x; sy = h - 1 - y; break;
+        case 4: sy = h - 1 - y; break;
+        case 5: sx = y; sy = x; break;
+        case 6: sx = y; sy = h - 1 - x; break;
+        case 7: sx = w - 1 - y; sy = h - 1 - x; break;
+        case 8: sx = w - 1 - y; sy = x; break;
+        default: break;
+      }
+      std::copy_n(&img.data[img.index(sx, sy)], c, &out.data[out.index(x, y)]);
+    }
+  return out;
+}
+
 }  // namespace
 
-Image read_image(const std::string& path) {
+Image read_image(const std::string& path, ImageOrientation how) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw IoError(path + ": no such file");
   if (fs::is_directory(path, ec)) throw IoError(path + ": is a folder, not an image");
@@ -72,10 +99,12 @@ Image read_image(const std::string& path) {
     const std::string msg = in->geterror();
     throw IoError(path + ": corrupt or truncated image" + (msg.empty() ? std::string() : " (" + msg + ")"));
   }
+  const int orientation = spec.get_int_attribute("Orientation", 1);
   in->close();
   for (float v : img.data)
     if (!std::isfinite(v)) throw IoError(path + ": image holds non-finite values");
-  return img;
+  const bool turn = how == ImageOrientation::kUpright && orientation >= 2 && orientation <= 8;
+  return turn ? upright(img, orientation) : img;
 }
 
 void write_image(const std::string& path, const Image& image) {

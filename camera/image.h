@@ -25,10 +25,19 @@ struct Image {
   [[nodiscard]] float at(int x, int y, int c = 0) const { return data[index(x, y, c)]; }
 };
 
+/// How read_image treats a file's EXIF/TIFF orientation metadata.
+enum class ImageOrientation {
+  kUpright,   ///< turned and/or mirrored as the metadata says, i.e. as the image is displayed (photos, masks)
+  kAsStored,  ///< the pixels as stored (texture maps, whose UV coordinates address the stored grid)
+};
+
 /// Read any format OpenImageIO reads (PNG, JPEG, EXR, TIFF, ...), all channels, first sub-image.
-/// 8/16-bit integer data -> [0, 1] floats. Throws IoError naming the file when it is missing, unreadable,
-/// corrupt or empty (zero pixels), or when it holds non-finite values.
-Image read_image(const std::string& path);
+/// 8/16-bit integer data -> [0, 1] floats. By default the image is returned as it is meant to be displayed: a file
+/// whose metadata holds an orientation other than 1 (a phone photo stored sideways with "turn 90 degrees to
+/// display") is turned and/or mirrored upright, so that width, height, pixel positions and anything derived from
+/// them (masks, boxes, cameras) refer to the upright image. Throws IoError naming the file when it is missing,
+/// unreadable, corrupt or empty (zero pixels), or when it holds non-finite values.
+Image read_image(const std::string& path, ImageOrientation orientation = ImageOrientation::kUpright);
 
 /// Write by extension: .png (8-bit, values clamped to [0, 1] and rounded), .exr (32-bit float, values as
 /// they are), .jpg/.jpeg (8-bit), .tif/.tiff (16-bit). Written to a temporary file in the same folder and

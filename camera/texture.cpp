@@ -44,7 +44,11 @@ TextureSampler image_texture_sampler() {
     {
       std::lock_guard<std::mutex> lock(cache->mutex);
       auto it = cache->images.find(path);
-      if (it == cache->images.end()) it = cache->images.emplace(path, std::make_shared<const Image>(read_image(path))).first;
+      // UV coordinates address the stored pixel grid, as in other renderers: EXIF orientation is not applied.
+      if (it == cache->images.end()) {
+        auto stored = std::make_shared<const Image>(read_image(path, ImageOrientation::kAsStored));
+        it = cache->images.emplace(path, std::move(stored)).first;
+      }
       image = it->second;
     }
     std::vector<Eigen::Vector3f> out(uv.size());

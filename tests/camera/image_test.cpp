@@ -4,10 +4,14 @@
 #include "scratch.h"
 
 #include <doctest/doctest.h>
+#include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <unistd.h>
+#include <vector>
 
 using namespace sdfkit;
 namespace fs = std::filesystem;
@@ -131,4 +135,108 @@ TEST_CASE("image: the same pixels written a second apart give the same bytes (no
     if (std::string(ext) != "png")  // EXR capDate and TIFF DateTime hold EXIF's "unknown date"
       CHECK(read_file(a).find("    :  :     :  :  ") != std::string::npos);
   }
+}
+
+namespace {
+/// Write `img` (values in [0, 1]) as `path` through OpenImageIO with the metadata Orientation = `orientation`:
+/// the stored pixels are `img`, the file says how to turn them for display.
+void write_with_orientation(const std::string& path, const Image& img, int orientation, OIIO::TypeDesc type) {
+  auto out = OIIO::ImageOutput::create(path);
+  REQUIRE(out);
+  OIIO::ImageSpec spec(img.width, img.height, img.channels, type);
+  spec.attribute("Orientation", orientation);
+  REQUIRE(out->open(path, spec));
+  REQUIRE(out->write_image(OIIO::TypeDesc::FLOAT, img.data.data()));
+  REQUIRE(out->close());
+}
+
+/// The values of channel 0 along one side of `img` ('t'op, 'b'ottom, 'l'eft, 'r'ight), read from its end at the
+/// perpendicular side `from`.
+std::vector<float> side_values(const Image& img, char side, char from) {
+  std::vector<float> v;
+  const bool row = side == 't' || side == 'b';
+  const int n = row ? img.width : img.height;
+  for (int i = 0; i < n; ++i) {
+    const int along = (from == 'l' || from == 't') ? i : n - 1 - i;
+    const int x = row ? along : (side == 'l' ? 0 : img.width - 1);
+    const int y = row ? (side == 't' ? 0 : img.height - 1) : along;
+    v.push_back(img.at(x, y, 0));
+  }
+  return v;
+}
+}  // namespace
+
+// A phone photo is often stored sideways with "turn 90 degrees to display" in its EXIF data; everything recon
+// derives from an image (mask, box, camera) must refer to the upright image the user sees.
+TEST_CASE("image: files are read upright under each of the eight EXIF/TIFF orientations") {
+  const std::string dir = tmpdir();
+  const int w = 3, h = 2;
+  Image stored(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) stored.at(x, y, c) = static_cast<float>(1 + x + w * y + 10 * c) / 64.0f;
+  // TIFF 6.0's definition of each orientation: the visual side on which the stored row 0 lies, and the visual
+  // side on which the stored column 0 lies (1: top, left; 6: right, top; ...).
+  const char sides[9][2] = {{},         {'t', 'l'}, {'t', 'r'}, {'b', 'r'}, {'b', 'l'},
+                            {'l', 't'}, {'r', 't'}, {'r', 'b'}, {'l', 'b'}};
+  std::vector<float> row0, col0;
+  for (int x = 0; x < w; ++x) row0.push_back(stored.at(x, 0, 0));
+  for (int y = 0; y < h; ++y) col0.push_back(stored.at(0, y, 0));
+  for (int o = 1; o <= 8; ++o) {
+    CAPTURE(o);
+    const std::string path = dir + "/o" + std::to_string(o) + ".tif";
+    write_with_orientation(path, stored, o, OIIO::TypeDesc::UINT16);
+    const Image shown = read_image(path);
+    const bool swapped = o >= 5;
+    REQUIRE(shown.width == (swapped ? h : w));
+    REQUIRE(shown.height == (swapped ? w : h));
+    REQUIRE(shown.channels == 3);
+    // The stored row 0 along its side, starting where column 0 lies; column 0 along its side, starting at row 0's.
+    const std::vector<float> r = side_values(shown, sides[o][0], sides[o][1]);
+    const std::vector<float> c = side_values(shown, sides[o][1], sides[o][0]);
+    REQUIRE(r.size() == row0.size());
+    REQUIRE(c.size() == col0.size());
+    for (size_t i = 0; i < r.size(); ++i) CHECK(r[i] == doctest::Approx(row0[i]).epsilon(1e-4));
+    for (size_t i = 0; i < c.size(); ++i) CHECK(c[i] == doctest::Approx(col0[i]).epsilon(1e-4));
+    // Every stored pixel is shown once, with its three channels together.
+    std::vector<float> a(stored.data.begin(), stored.data.end()), b(shown.data.begin(), shown.data.end());
+    std::sort(a.begin(), a.end());
+    std::sort(b.begin(), b.end());
+    for (size_t i = 0; i < a.size(); ++i) CHECK(b[i] == doctest::Approx(a[i]).epsilon(1e-4));
+    for (int y = 0; y < shown.height; ++y)
+      for (int x = 0; x < shown.width; ++x) {
+        CHECK(shown.at(x, y, 1) == doctest::Approx(shown.at(x, y, 0) + 10.0f / 64).epsilon(1e-4));
+        CHECK(shown.at(x, y, 2) == doctest::Approx(shown.at(x, y, 0) + 20.0f / 64).epsilon(1e-4));
+      }
+  }
+  // Texture maps are read as stored: their UV coordinates address the stored grid.
+  const Image as_stored = read_image(dir + "/o6.tif", ImageOrientation::kAsStored);
+  REQUIRE(as_stored.width == w);
+  for (size_t i = 0; i < stored.data.size(); ++i)
+    CHECK(as_stored.data[i] == doctest::Approx(stored.data[i]).epsilon(1e-4));
+  // An orientation outside 1-8 is ignored (the pixels as stored), not an error.
+  write_with_orientation(dir + "/o9.tif", stored, 9, OIIO::TypeDesc::UINT16);
+  const Image odd = read_image(dir + "/o9.tif");
+  CHECK(odd.width == w);
+  CHECK(odd.at(2, 1, 0) == doctest::Approx(stored.at(2, 1, 0)).epsilon(1e-4));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("image: a JPEG stored sideways with EXIF orientation 6 is read upright") {
+  const std::string dir = tmpdir();
+  // Stored 32 x 16: a red left half and a blue right half, each a block large enough for JPEG to keep its colour.
+  Image stored(32, 16, 3, 0.0f);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 32; ++x) stored.at(x, y, x < 16 ? 0 : 2) = 1.0f;
+  const std::string path = dir + "/phone.jpg";
+  write_with_orientation(path, stored, 6, OIIO::TypeDesc::UINT8);
+  const Image shown = read_image(path);
+  REQUIRE(shown.width == 16);
+  REQUIRE(shown.height == 32);
+  // Turned 90 degrees clockwise, the stored left half (red) is on top and the right half (blue) below.
+  CHECK(shown.at(8, 6, 0) > 0.8f);
+  CHECK(shown.at(8, 6, 2) < 0.2f);
+  CHECK(shown.at(8, 25, 2) > 0.8f);
+  CHECK(shown.at(8, 25, 0) < 0.2f);
+  fs::remove_all(dir);
 }
