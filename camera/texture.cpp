@@ -44,7 +44,7 @@ TextureSampler image_texture_sampler() {
     {
       std::lock_guard<std::mutex> lock(cache->mutex);
       auto it = cache->images.find(path);
-      // UV coordinates address the stored pixel grid, as in other renderers: EXIF orientation is not applied.
+      // UV coordinates address the stored pixel grid: EXIF orientation is not applied.
       if (it == cache->images.end()) {
         auto stored = std::make_shared<const Image>(read_image(path, ImageOrientation::kAsStored));
         it = cache->images.emplace(path, std::move(stored)).first;
