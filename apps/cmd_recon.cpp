@@ -121,7 +121,8 @@ std::function<int()> setup_recon(CLI::App& app) {
   o->photo_model = default_model_path("sdf_photo.ckpt");
   o->seg_model = default_model_path("seg.ckpt");
   app.add_option("input", o->input,
-                 "an image (PNG/JPG/EXR/TIFF/BMP, any size and aspect ratio, grey, RGB or RGBA), a folder of images, "
+                 "an image (any format OpenImageIO reads: PNG, JPEG, EXR, TIFF, BMP, WebP, HEIC, ...; any size and aspect "
+                 "ratio, grey, RGB or RGBA), a folder of images, "
                  "or a .txt/.lst list of image paths. The object is found (alpha, --mask, a plain background, or "
                  "GrabCut: --segment), composited on white and cropped like the training renders (--framing)")
       ->required();
@@ -295,7 +296,7 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_flag("--json", o->json, "print per-image results (camera, timings per stage, evaluations) as JSON");
   return [o, format_opt, &app] {
     const std::vector<std::string> inputs = collect_inputs(o->input);
-    const bool many = fs::is_directory(o->input) || inputs.size() > 1 || !is_image_path(o->input);
+    const bool many = fs::is_directory(o->input) || inputs.size() > 1 || is_list_path(o->input);
     const bool mesh_out = is_mesh_out_path(o->out);
     if (o->fuse) check_fuse_flags(app, inputs.size(), mesh_out, o->out, o->cam);
     if (!many && !mesh_out)

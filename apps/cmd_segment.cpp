@@ -47,8 +47,8 @@ std::function<int()> setup_segment(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   o->seg_model = default_model_path("seg.ckpt");
   app.add_option("input", o->input,
-                 "an image (any size and aspect ratio, grey, RGB or RGBA), a folder of images, or a .txt/.lst list of "
-                 "image paths")
+                 "an image (any format OpenImageIO reads, any size and aspect ratio, grey, RGB or RGBA), a folder of "
+                 "images, or a .txt/.lst list of image paths")
       ->required();
   app.add_option("-o,--out", o->out,
                  "output: a .png path for one image; for a folder or list, a folder receiving <name>.mask.png per "
@@ -90,7 +90,7 @@ std::function<int()> setup_segment(CLI::App& app) {
                "or error], \"summary\": {...}} as JSON");
   return [o, &app] {
     const std::vector<std::string> inputs = collect_inputs(o->input);
-    const bool many = fs::is_directory(o->input) || inputs.size() > 1 || !is_image_path(o->input);
+    const bool many = fs::is_directory(o->input) || inputs.size() > 1 || is_list_path(o->input);
     if (!many && extension_of(o->out) != "png")
       throw InvalidInput("-o " + o->out + ": give a .png path for the mask of one image");
     if (many && fs::exists(o->out) && !fs::is_directory(o->out))

@@ -65,11 +65,18 @@ bool is_mesh_out_path(const std::string& path);
 /// "1 image", "3 images": a count of input images in a message.
 std::string image_count(size_t n);
 
-/// True when `path` ends in an image extension the commands read (png, jpg, jpeg, exr, tif, tiff, bmp).
+/// Extensions (lower case, no dot) of the image files a folder input contributes: the still-image formats this
+/// OpenImageIO reads (PNG, JPEG, EXR, TIFF, BMP, WebP, HEIC/HEIF/AVIF, GIF, PNM, Targa, Radiance HDR, JPEG 2000).
+extern const std::vector<std::string> kImageExtensions;
+/// True when `path` ends in one of kImageExtensions (case-insensitive).
 bool is_image_path(const std::string& path);
-/// The images of an input argument: IMAGE, a folder of images (sorted, not recursive; *_mask.*, *.mask.* and
-/// *.preview.* files skipped), or a .txt/.lst list file (one path per line, relative to the list's folder; blank
-/// lines and # comments skipped). IoError / InvalidInput naming `input` when it is missing or holds no image.
+/// True when `path` is a list file of images (.txt or .lst).
+bool is_list_path(const std::string& path);
+/// The images of an input argument: IMAGE (any file that is not a list file, whatever its extension: OpenImageIO
+/// decides when it is read), a folder of images (files with an extension of kImageExtensions, sorted, not
+/// recursive; *_mask.*, *.mask.* and *.preview.* files skipped), or a .txt/.lst list file (one path per line,
+/// relative to the list's folder; blank lines and # comments skipped). IoError / InvalidInput naming `input` when
+/// it is missing or holds no image.
 std::vector<std::string> collect_inputs(const std::string& input);
 
 /// The segmenter network of `model_path` (nets/seg_net.h) as framing.segmenter and framing.segmenter_batch: one

@@ -18,8 +18,11 @@ namespace fs = std::filesystem;
 
 namespace sdfkit::app {
 
+const std::vector<std::string> kImageExtensions = {"png",  "jpg", "jpeg", "exr", "tif", "tiff", "bmp", "webp",
+                                                   "heic", "heif", "avif", "gif", "pnm", "ppm", "pgm",  "pbm",
+                                                   "tga",  "hdr",  "jp2",  "j2k"};
+
 namespace {
-const std::vector<std::string> kImageExtensions = {"png", "jpg", "jpeg", "exr", "tif", "tiff", "bmp"};
 
 bool ends_with(const std::string& s, const std::string& tail) {
   return s.size() > tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
@@ -79,6 +82,11 @@ bool is_image_path(const std::string& path) {
   return std::find(kImageExtensions.begin(), kImageExtensions.end(), e) != kImageExtensions.end();
 }
 
+bool is_list_path(const std::string& path) {
+  const std::string e = extension_of(path);
+  return e == "txt" || e == "lst";
+}
+
 std::vector<std::string> collect_inputs(const std::string& input) {
   std::vector<std::string> out;
   if (fs::is_directory(input)) {
@@ -89,12 +97,15 @@ std::vector<std::string> collect_inputs(const std::string& input) {
       out.push_back(p);
     }
     std::sort(out.begin(), out.end());
-    if (out.empty()) throw InvalidInput(input + ": folder holds no images (png, jpg, exr, tif, bmp)");
+    if (out.empty()) {
+      std::string known;
+      for (const std::string& e : kImageExtensions) known += (known.empty() ? "" : ", ") + e;
+      throw InvalidInput(input + ": folder holds no images (" + known + ")");
+    }
     return out;
   }
   if (!fs::exists(input)) throw IoError(input + ": no such file or folder");
-  const std::string ext = extension_of(input);
-  if (ext == "txt" || ext == "lst") {
+  if (is_list_path(input)) {
     std::istringstream in(read_file(input));
     std::string line;
     while (std::getline(in, line)) {

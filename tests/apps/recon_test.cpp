@@ -9,6 +9,7 @@
 #include "nets/sdf_train.h"
 #include "sdf/orientation.h"
 
+#include <OpenImageIO/imagebuf.h>
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -487,6 +488,54 @@ TEST_CASE("recon outputs: the format follows -o, a folder only for a folder inpu
   const Run r = run("recon " + (dir / "in").string() + " -o " + (dir / "outdir").string() + " --format stl" + cam);
   REQUIRE_MESSAGE(r.code == 0, r.err);
   CHECK(fs::is_regular_file(dir / "outdir" / "a.stl"));
+}
+
+// Issue 19 (real inputs): phones and the web give HEIC and WebP. A single input file is one image whatever its
+// extension (OpenImageIO decides); a folder contributes the image formats this OpenImageIO reads.
+TEST_CASE("recon inputs: WebP and HEIC files, in a folder or alone, and a single file of any extension") {
+  REQUIRE(have_models());
+  const fs::path dir = test::scratch_dir("recon_cli") / "formats";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "in");
+  const std::string img = kSource + "/data/examples/chair_0004.png";
+  const std::string cam = " --cam " + kSource + "/data/examples/chair_0004.json --res 33 --no-preview";
+  const OIIO::ImageBuf chair(img);
+  REQUIRE(chair.write((dir / "in" / "a.webp").string()));
+  REQUIRE(chair.write((dir / "in" / "b.heic").string()));
+  fs::copy_file(img, dir / "in" / "c.png");
+  write_text_atomic((dir / "in" / "notes.txt").string(), "not an image\n");
+  // The folder: the three images, not the text file.
+  Run r = run("recon " + (dir / "in").string() + " -o " + (dir / "out").string() + cam + " --json");
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  const Json j = Json::parse(r.out);
+  REQUIRE(j.size() == 3);
+  for (const Json& item : j) {
+    CAPTURE(item.dump());
+    CHECK(item.at("framing").at("image_size") == Json::array({137, 137}));
+    CHECK(item.at("framing").at("mask_source") == "alpha");  // both formats keep the render's alpha
+  }
+  for (const char* stem : {"a", "b", "c"})
+    CHECK(read_mesh((dir / "out" / (std::string(stem) + ".obj")).string()).num_faces() > 50);
+  // Alone, each is one image: -o names its mesh.
+  r = run("recon " + (dir / "in" / "b.heic").string() + " -o " + (dir / "heic.obj").string() + cam);
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(read_mesh((dir / "heic.obj").string()).num_faces() > 50);
+  fs::copy_file(img, dir / "chair.image");
+  r = run("recon " + (dir / "chair.image").string() + " -o " + (dir / "any.obj").string() + cam);
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(fs::is_regular_file(dir / "any.obj"));
+  // A file that is no image is refused by name; a folder without images lists what it looks for.
+  write_text_atomic((dir / "notes.xyz").string(), "not an image\n");
+  r = run("recon " + (dir / "notes.xyz").string() + " -o " + (dir / "x.obj").string() + cam);
+  CHECK(r.code != 0);
+  CHECK(r.err.find("notes.xyz") != std::string::npos);
+  CHECK(r.err.find("cannot read image") != std::string::npos);
+  CHECK(!fs::exists(dir / "x.obj"));
+  fs::create_directories(dir / "empty");
+  fs::copy_file(dir / "notes.xyz", dir / "empty" / "notes.xyz");
+  r = run("recon " + (dir / "empty").string() + " -o " + (dir / "out2").string() + cam);
+  CHECK(r.code == 1);
+  CHECK(r.err.find("holds no images (png, jpg, jpeg, exr, tif, tiff, bmp, webp, heic") != std::string::npos);
 }
 
 // Multi-view reconstruction (`recon --fuse`): four rendered views of an example's ground truth with their cameras
