@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <new>
 #include <string>
 
 namespace fs = std::filesystem;
@@ -92,7 +93,19 @@ Image read_image(const std::string& path, ImageOrientation how) {
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth != 1)
     throw IoError(path + ": empty or unsupported image (" + std::to_string(spec.width) + "x" +
                   std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) + ")");
-  Image img(spec.width, spec.height, spec.nchannels);
+  const long long pixels = static_cast<long long>(spec.width) * spec.height;
+  const std::string size = std::to_string(spec.width) + "x" + std::to_string(spec.height);
+  if (pixels > kMaxImagePixels)
+    throw IoError(path + ": " + size + " pixels (" + std::to_string(pixels / 1'000'000) +
+                  " megapixels) is more than sdfkit reads (" + std::to_string(kMaxImagePixels / 1'000'000) +
+                  "); shrink the image first");
+  Image img;
+  try {
+    img = Image(spec.width, spec.height, spec.nchannels);
+  } catch (const std::bad_alloc&) {
+    throw IoError(path + ": not enough memory for a " + size + " image with " + std::to_string(spec.nchannels) +
+                  " channels");
+  }
   // OIIO converts 8/16-bit unsigned data to [0, 1] floats.
   const bool ok = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.data.data());
   if (!ok) {

@@ -25,6 +25,10 @@ struct Image {
   [[nodiscard]] float at(int x, int y, int c = 0) const { return data[index(x, y, c)]; }
 };
 
+/// The largest image read_image reads: 250 megapixels (a 200 MP phone photo fits; 3 GB as RGB floats). A file
+/// declaring more is refused before any pixel is allocated: its header alone can claim gigapixels.
+inline constexpr long long kMaxImagePixels = 250'000'000;
+
 /// How read_image treats a file's EXIF/TIFF orientation metadata.
 enum class ImageOrientation {
   kUpright,   ///< turned and/or mirrored as the metadata says, i.e. as the image is displayed (photos, masks)
@@ -36,7 +40,7 @@ enum class ImageOrientation {
 /// whose metadata holds an orientation other than 1 (a phone photo stored sideways with "turn 90 degrees to
 /// display") is turned and/or mirrored upright, so that width, height, pixel positions and anything derived from
 /// them (masks, boxes, cameras) refer to the upright image. Throws IoError naming the file when it is missing,
-/// unreadable, corrupt or empty (zero pixels), or when it holds non-finite values.
+/// unreadable, corrupt or empty (zero pixels), larger than kMaxImagePixels, or when it holds non-finite values.
 Image read_image(const std::string& path, ImageOrientation orientation = ImageOrientation::kUpright);
 
 /// Write by extension: .png (8-bit, values clamped to [0, 1] and rounded), .exr (32-bit float, values as

@@ -99,6 +99,28 @@ TEST_CASE("image: errors name the file") {
     CHECK(std::string(e.what()).find("lying.png: corrupt PNG (chunk 'tEXt' at byte 33 declares 1778385034 bytes") !=
           std::string::npos);
   }
+  // A header claiming 20000 x 20000 pixels (a few bytes can claim gigapixels): refused before any allocation.
+  // IHDR's width and height are bytes 16-23, its CRC (PNG's CRC-32 over type and data) bytes 29-32.
+  std::string huge = bytes;
+  for (int i = 0; i < 2; ++i) {
+    const uint32_t side = 20000;
+    for (int b = 0; b < 4; ++b) huge[16 + 4 * i + b] = static_cast<char>((side >> (24 - 8 * b)) & 0xff);
+  }
+  uint32_t crc = 0xffffffffu;
+  for (int i = 12; i < 29; ++i) {
+    crc ^= static_cast<unsigned char>(huge[i]);
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+  }
+  crc ^= 0xffffffffu;
+  for (int b = 0; b < 4; ++b) huge[29 + b] = static_cast<char>((crc >> (24 - 8 * b)) & 0xff);
+  write_text_atomic(dir + "/huge.png", huge);
+  try {
+    read_image(dir + "/huge.png");
+    FAIL("no exception");
+  } catch (const IoError& e) {
+    CHECK(std::string(e.what()).find("huge.png: 20000x20000 pixels (400 megapixels) is more than sdfkit reads (250)") !=
+          std::string::npos);
+  }
 
   Image nan(2, 2, 1);
   nan.data[1] = NAN;
