@@ -648,6 +648,10 @@ Image zoomed_foreground(const std::function<Image(const Image& rgb)>& segmenter,
 FramedInput frame_input(const Image& image, const Image* mask, const FramingSettings& st, const std::string& what) {
   if (image.empty() || image.width <= 0 || image.height <= 0 || image.channels <= 0)
     throw InvalidInput(what + ": empty image");
+  // With more channels, which one is alpha is a guess (to_rgb would take the fourth, has_alpha none).
+  if (image.channels > 4)
+    throw InvalidInput(what + ": " + std::to_string(image.channels) +
+                       " channels; give a grey, grey + alpha, RGB or RGBA image");
   const int W = image.width, H = image.height;
   FramedInput f;
   // 1. The object's coverage at the input's size.

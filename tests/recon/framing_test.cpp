@@ -197,6 +197,15 @@ TEST_CASE("framing: a given mask replaces alpha and segmentation, --segment none
 TEST_CASE("framing refuses empty, tiny, background-only and objectless images with one line naming the input") {
   const FramingSettings st;
   CHECK_THROWS_AS(frame_input(Image(), nullptr, st, "e.png"), InvalidInput);
+  // A fifth channel (RGBA + depth, say): which channel is alpha would be a guess.
+  const Image rgba = ellipse_image(100, 100, 50, 50, 30, 30, kWhite, true);
+  Image five(100, 100, 5, 0.5f);
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 100; ++x)
+      for (int c = 0; c < 4; ++c) five.at(x, y, c) = rgba.at(x, y, c);
+  CHECK_NOTHROW(frame_input(rgba, nullptr, st, "rgba.png"));
+  CHECK_THROWS_WITH_AS(frame_input(five, nullptr, st, "five.tif"), doctest::Contains("five.tif: 5 channels"),
+                       InvalidInput);
   Image one(1, 1, 3, 0.2f);
   CHECK_THROWS_WITH_AS(frame_input(one, nullptr, st, "one.png"), doctest::Contains("one.png"), InvalidInput);
   Image plain(120, 90, 3, 0.7f);
