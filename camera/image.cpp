@@ -116,8 +116,9 @@ Image read_image(const std::string& path, ImageOrientation how) {
   in->close();
   for (float v : img.data)
     if (!std::isfinite(v)) throw IoError(path + ": image holds non-finite values");
-  const bool turn = how == ImageOrientation::kUpright && orientation >= 2 && orientation <= 8;
-  return turn ? upright(img, orientation) : img;
+  // Not a conditional expression: `turn ? upright(...) : img` would copy img whenever there is nothing to turn.
+  if (how == ImageOrientation::kUpright && orientation >= 2 && orientation <= 8) return upright(img, orientation);
+  return img;
 }
 
 void write_image(const std::string& path, const Image& image) {
