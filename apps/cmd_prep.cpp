@@ -141,7 +141,7 @@ std::vector<ShapeJob> gather(const std::string& input) {
 std::function<int()> setup_prep(CLI::App& app) {
   struct Opts {
     std::string input, out, shard, gt = "auto", sign = "auto", up = "y";
-    double voxel = 2.4 / 256, band = 0.0, uniform_share = 0.0;
+    double voxel = 2.4 / 256, band = 0.0, uniform_share = 0.0, sheet = PrepareSettings{}.sheet_voxels;
     long samples = 32768;
     int views = 24, jobs = 0;
     uint64_t seed = 0;
@@ -166,6 +166,12 @@ std::function<int()> setup_prep(CLI::App& app) {
                  "winding (generalized winding numbers always), flood (auto, plus the cavities the surface seals at "
                  "the voxel size, gaps under about 1.7 voxels, counted inside: DISN's polygon-soup convention)")
       ->check(CLI::IsMember({"auto", "winding", "flood"}))
+      ->capture_default_str();
+  app.add_option("--sheet", o->sheet,
+                 "half-thickness, in voxels, given to open single-sided sheets (a sling seat, a leaf: faces with no "
+                 "inside on either side) before the SDF, so that the iso-surface ground truth and the samples see a "
+                 "solid slab instead of a shell thinner than a voxel; 0 = none; closed meshes are never changed")
+      ->check(non_negative())
       ->capture_default_str();
   app.add_option("--samples", o->samples, "training samples per shape, in four equal bins on d = sdf - 0.003")
       ->check(non_negative())
@@ -209,6 +215,7 @@ std::function<int()> setup_prep(CLI::App& app) {
     s.grid.band = o->band;
     s.grid.sign = o->sign == "winding" ? SignMethod::kWindingNumber : SignMethod::kAuto;
     s.grid.seal = o->sign == "flood";
+    s.sheet_voxels = o->sheet;
     s.samples.count = o->samples;
     s.samples.uniform_share = o->uniform_share;
     s.gt = o->gt == "input" ? GtSource::kInput : o->gt == "iso" ? GtSource::kIsoSurface : GtSource::kAuto;
@@ -296,6 +303,8 @@ std::function<int()> setup_prep(CLI::App& app) {
                               st.samples.bin_counts[3] + st.samples.uniform_count,
                           st.gt_source.c_str(), st.seconds);
             std::string text = line;
+            if (st.sheet_faces > 0)
+              text += ", " + std::to_string(st.sheet_faces) + " open sheet faces thickened";
             if (!st.redone.empty()) {
               text += " (prepared again: its norm.json had another";
               for (size_t k = 0; k < st.redone.size(); ++k) text += (k ? ", " : " ") + st.redone[k];
@@ -341,6 +350,7 @@ std::function<int()> setup_prep(CLI::App& app) {
                        {"gt", o->gt},
                        {"gt_iso", s.gt_iso},
                        {"sign", o->sign},
+                       {"sheet", o->sheet},
                        {"seed", o->seed}}},
                      {"counts", {{"shapes", jobs.size()}, {"ok", ok + skipped}, {"failed", failed}}},
                      {"shapes", shapes}};

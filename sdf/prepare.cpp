@@ -5,6 +5,7 @@
 #include "sdf/mesh_queries.h"
 #include "sdf/normalize.h"
 #include "sdf/orientation.h"
+#include "sdf/sheets.h"
 #include "sdf/sparse_sdf_vdb.h"
 
 #include <openvdb/tools/VolumeToMesh.h>
@@ -214,6 +215,12 @@ std::vector<std::string> prepared_differences(const std::string& shape_dir, cons
     const Json* sealed = at("grid", "sealed");  // absent before sealing existed: not sealed
     if ((sealed && sealed->is_boolean() && sealed->get<bool>()) != s.grid.seal) keys.emplace_back("grid.sealed");
   }
+  {
+    // A closed mesh has no single-sided sheet: the setting changes nothing, and norm.json files from before it
+    // existed stay valid for them.
+    const Json* closed = at("mesh", "closed");
+    if (!(closed && closed->is_boolean() && closed->get<bool>())) number("grid", "sheet", s.sheet_voxels);
+  }
   number("samples", "count", static_cast<double>(s.samples.count));
   number("samples", "offset", s.samples.offset);
   {
@@ -280,7 +287,16 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
 
   // One sign method for the grid and the samples (pseudo-normals for closed one-part meshes, else winding).
   // The query structures (BVH, pseudo-normals or winding numbers) are built once for the grid and the samples.
-  const MeshQueries queries(object, settings.grid.sign, settings.grid.voxel_size, settings.grid.winding_beta);
+  // Open single-sided sheets, and whatever inside is thinner than a voxel next to a face of a part with a rim, get a
+  // thickness for everything made from the SDF (grid, samples, iso-surface gt): probed one voxel off each face.
+  const double h = settings.grid.voxel_size;
+  SheetReport sheets;
+  const Mesh solid = settings.sheet_voxels > 0
+                         ? thicken_open_sheets(object, settings.sheet_voxels * h, h, &sheets,
+                                               settings.grid.winding_beta)
+                         : object;
+  st.sheet_faces = sheets.sheet_faces;
+  const MeshQueries queries(solid, settings.grid.sign, h, settings.grid.winding_beta);
   const SignMethod sign = queries.sign();
   st.sign = sign;
   const SparseSdf sdf = SparseSdf::from_mesh(queries, settings.grid, &st.grid,
@@ -327,7 +343,9 @@ PrepareStatus prepare_impl(const Mesh& input, const std::string& source, const s
                {"active_voxels", st.active_voxels},
                {"band", settings.grid.band > 0 ? settings.grid.band : 3 * settings.grid.voxel_size},
                {"sign", sign_method_name(sign)},
-               {"sealed", settings.grid.seal}};
+               {"sealed", settings.grid.seal},
+               {"sheet", settings.sheet_voxels},
+               {"sheet_faces", st.sheet_faces}};
   j["samples"] = {{"count", samples.rows()},
                   {"offset", settings.samples.offset},
                   {"edges", settings.samples.edges},

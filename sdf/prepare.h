@@ -28,6 +28,10 @@ struct PrepareSettings {
   SampleSettings samples;
   GtSource gt = GtSource::kAuto;
   double gt_iso = 0.003;  ///< DISN's level for the iso-surface ground truth
+  /// Half-thickness given to open single-sided sheets (sdf/sheets.h), in voxels; 0 = none. With 0.5 the ground
+  /// truth around a sheet is a slab 2 * (0.5 voxel + gt_iso) = 1.6 voxels thick, which the lattice cannot miss.
+  /// Meshes without boundary edges are never changed.
+  double sheet_voxels = 0.5;
   bool overwrite = false; ///< redo a shape even when its norm.json exists
   UpAxis up = UpAxis::kY; ///< the mesh file's up axis (prepare_shape turns it to +y first; norm.json records it)
 };
@@ -41,6 +45,7 @@ struct PrepareStatus {
   MeshReport mesh;          ///< validation counts
   long flipped_faces = 0;
   bool closed_input = false;
+  long sheet_faces = 0;     ///< faces of open single-sided sheets given a thickness (sdf/sheets.h)
   std::string gt_source;    ///< "input" or "iso"
   SignMethod sign = SignMethod::kNone;  ///< sign method used for the grid and the samples
   long active_voxels = 0;
@@ -94,7 +99,7 @@ std::vector<RotationSymmetry> prepared_shape_symmetries(const std::string& shape
                                                         const std::function<void()>& before_search = {});
 
 /// The settings that a complete shape's norm.json records differently from `settings` (up, grid.voxel_size,
-/// grid.band, grid.sign, grid.sealed, samples.count/offset/edges/uniform/seed, gt.setting, gt.iso), as their
+/// grid.band, grid.sign, grid.sealed, grid.sheet (only for meshes that were not closed), samples.count/offset/edges/uniform/seed, gt.setting, gt.iso), as their
 /// norm.json keys; {"norm.json"} when it cannot be read; empty when the shape is what `settings` would make.
 /// grid.sign differs only when the recorded method cannot come from the requested one (winding numbers asked and
 /// pseudo-normals recorded, say).
