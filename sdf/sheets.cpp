@@ -72,46 +72,118 @@ Mesh thicken_open_sheets(const Mesh& mesh, double half_thickness, double probe, 
   if (report) *report = rep;
   if (rep.sheet_faces == 0) return mesh;
 
-  const Eigen::Index kept = mesh.F.rows();
+  const Eigen::Index nv0 = mesh.V.rows(), nf0 = mesh.F.rows();
+  std::vector<Vec3> unit(static_cast<size_t>(nf0), Vec3::Zero());
+  // Angle-weighted normal of each vertex over its sheet faces.
+  std::vector<Vec3> vnormal(static_cast<size_t>(nv0), Vec3::Zero());
+  for (Eigen::Index f = 0; f < nf0; ++f) {
+    if (!sheet[static_cast<size_t>(f)]) continue;
+    const Vec3 p[3] = {mesh.V.row(mesh.F(f, 0)), mesh.V.row(mesh.F(f, 1)), mesh.V.row(mesh.F(f, 2))};
+    unit[static_cast<size_t>(f)] = (p[1] - p[0]).cross(p[2] - p[0]).normalized();
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 e1 = p[(k + 1) % 3] - p[k], e2 = p[(k + 2) % 3] - p[k];
+      const double angle = std::atan2(e1.cross(e2).norm(), e1.dot(e2));
+      vnormal[static_cast<size_t>(mesh.F(f, k))] += angle * unit[static_cast<size_t>(f)];
+    }
+  }
+  for (Vec3& n : vnormal)
+    if (n.norm() > 0) n.normalize();
+  // A face shares its corners' offset vertices with its neighbours when its normal agrees with each corner's
+  // (creases up to about 60 degrees); otherwise (a fold, an inconsistently oriented neighbour) it gets offset
+  // vertices of its own along its normal, a prism.
+  std::vector<char> shared(static_cast<size_t>(nf0), 0);
+  std::unordered_map<uint64_t, int> directed;  // directed edge (a, b) of a shared face -> count
+  for (Eigen::Index f = 0; f < nf0; ++f) {
+    const auto fi = static_cast<size_t>(f);
+    if (!sheet[fi]) continue;
+    bool ok = true;
+    for (int k = 0; k < 3; ++k) ok = ok && vnormal[static_cast<size_t>(mesh.F(f, k))].dot(unit[fi]) >= 0.5;
+    shared[fi] = ok;
+    if (ok)
+      for (int k = 0; k < 3; ++k)
+        ++directed[(static_cast<uint64_t>(mesh.F(f, k)) << 32) | static_cast<uint32_t>(mesh.F(f, (k + 1) % 3))];
+  }
+  // Offset vertices: top (+normal) and bottom of every vertex of a shared face, in vertex order; then 6 per prism.
+  std::vector<int32_t> top_of(static_cast<size_t>(nv0), -1);
+  Eigen::Index nv = nv0;
+  for (Eigen::Index f = 0; f < nf0; ++f)
+    if (shared[static_cast<size_t>(f)])
+      for (int k = 0; k < 3; ++k) top_of[static_cast<size_t>(mesh.F(f, k))] = 0;
+  for (Eigen::Index v = 0; v < nv0; ++v)
+    if (top_of[static_cast<size_t>(v)] == 0) top_of[static_cast<size_t>(v)] = static_cast<int32_t>(nv), nv += 2;
+  long prisms = 0, walls = 0;
+  for (Eigen::Index f = 0; f < nf0; ++f) {
+    const auto fi = static_cast<size_t>(f);
+    if (sheet[fi] && !shared[fi]) ++prisms;
+    if (!shared[fi]) continue;
+    for (int k = 0; k < 3; ++k) {
+      const auto a = static_cast<uint64_t>(mesh.F(f, k)), b = static_cast<uint64_t>(mesh.F(f, (k + 1) % 3));
+      const auto fwd = directed.find((a << 32) | b), back = directed.find((b << 32) | a);
+      walls += !(fwd->second == 1 && back != directed.end() && back->second == 1);
+    }
+  }
+  const Eigen::Index slab_faces = 2 * (rep.sheet_faces - prisms) + 2 * walls + 8 * prisms;
+
   Mesh out;
-  out.V.resize(mesh.V.rows() + 6 * rep.sheet_faces, 3);
-  out.V.topRows(mesh.V.rows()) = mesh.V;
-  out.F.resize(kept + 16 * rep.sheet_faces, 3);
+  out.V.resize(nv + 6 * prisms, 3);
+  out.V.topRows(nv0) = mesh.V;
+  out.F.resize(nf0 + 2 * slab_faces, 3);
+  out.F.topRows(nf0) = mesh.F;
   const bool colored = mesh.has_colors();
   if (colored) {
     out.colors.resize(out.V.rows(), 3);
-    out.colors.topRows(mesh.V.rows()) = mesh.colors;
+    out.colors.topRows(nv0) = mesh.colors;
   }
-  Eigen::Index nf = 0, nv = mesh.V.rows();
-  out.F.topRows(kept) = mesh.F;
-  nf = kept;
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
-    if (!sheet[static_cast<size_t>(f)]) continue;
-    const Vec3 a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
-    const Vec3 offset = half_thickness * (b - a).cross(c - a).normalized();
-    // Vertices: top a+ b+ c+ (nv .. nv+2), bottom a- b- c- (nv+3 .. nv+5).
-    const Vec3 corners[3] = {a, b, c};
+  for (Eigen::Index v = 0; v < nv0; ++v) {
+    const int32_t t = top_of[static_cast<size_t>(v)];
+    if (t < 0) continue;
+    const Vec3 offset = half_thickness * vnormal[static_cast<size_t>(v)];
+    out.V.row(t) = mesh.V.row(v) + offset.transpose();
+    out.V.row(t + 1) = mesh.V.row(v) - offset.transpose();
+    if (colored) out.colors.row(t) = out.colors.row(t + 1) = mesh.colors.row(v);
+  }
+  Eigen::Index nf = nf0;
+  // Top (+n) and bottom (-n) of a face with corner offset vertices top(k)/bot(k); the side wall of its directed
+  // edge k -> k+1, (a-, b-, b+), (a-, b+, a+), faces away from the face's interior.
+  const auto emit = [&](const auto& top, const auto& bot, const bool wall[3]) {
+    out.F.row(nf++) << top(0), top(1), top(2);
+    out.F.row(nf++) << bot(0), bot(2), bot(1);
     for (int k = 0; k < 3; ++k) {
-      out.V.row(nv + k) = corners[k] + offset;
-      out.V.row(nv + 3 + k) = corners[k] - offset;
-      if (colored) {
-        out.colors.row(nv + k) = mesh.colors.row(mesh.F(f, 0));
-        out.colors.row(nv + 3 + k) = mesh.colors.row(mesh.F(f, 0));
+      if (!wall[k]) continue;
+      const int j = (k + 1) % 3;
+      out.F.row(nf++) << bot(k), bot(j), top(j);
+      out.F.row(nf++) << bot(k), top(j), top(k);
+    }
+  };
+  for (int twice = 0; twice < 2; ++twice) {
+    Eigen::Index pv = nv;
+    for (Eigen::Index f = 0; f < nf0; ++f) {
+      const auto fi = static_cast<size_t>(f);
+      if (!sheet[fi]) continue;
+      if (shared[fi]) {
+        bool wall[3];
+        for (int k = 0; k < 3; ++k) {
+          const auto a = static_cast<uint64_t>(mesh.F(f, k)), b = static_cast<uint64_t>(mesh.F(f, (k + 1) % 3));
+          const auto fwd = directed.find((a << 32) | b), back = directed.find((b << 32) | a);
+          wall[k] = !(fwd->second == 1 && back != directed.end() && back->second == 1);
+        }
+        emit([&](int k) { return top_of[static_cast<size_t>(mesh.F(f, k))]; },
+             [&](int k) { return top_of[static_cast<size_t>(mesh.F(f, k))] + 1; }, wall);
+      } else {
+        if (twice == 0) {
+          const Vec3 offset = half_thickness * unit[fi];
+          for (int k = 0; k < 3; ++k) {
+            out.V.row(pv + k) = mesh.V.row(mesh.F(f, k)) + offset.transpose();
+            out.V.row(pv + 3 + k) = mesh.V.row(mesh.F(f, k)) - offset.transpose();
+            if (colored) out.colors.row(pv + k) = out.colors.row(pv + 3 + k) = mesh.colors.row(mesh.F(f, k));
+          }
+        }
+        const bool all[3] = {true, true, true};
+        emit([&](int k) { return static_cast<int32_t>(pv + k); }, [&](int k) { return static_cast<int32_t>(pv + 3 + k); },
+             all);
+        pv += 6;
       }
     }
-    const auto top = [&](int k) { return static_cast<int>(nv + k); };
-    const auto bot = [&](int k) { return static_cast<int>(nv + 3 + k); };
-    for (int twice = 0; twice < 2; ++twice) {
-      out.F.row(nf++) << top(0), top(1), top(2);  // normal +n
-      out.F.row(nf++) << bot(0), bot(2), bot(1);  // normal -n
-      for (int k = 0; k < 3; ++k) {
-        // Side wall of the directed edge k -> k+1: (a-, b-, b+), (a-, b+, a+) faces away from the face's interior.
-        const int j = (k + 1) % 3;
-        out.F.row(nf++) << bot(k), bot(j), top(j);
-        out.F.row(nf++) << bot(k), top(j), top(k);
-      }
-    }
-    nv += 6;
   }
   return out;
 }

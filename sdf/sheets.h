@@ -24,15 +24,18 @@ struct SheetReport {
   long sheet_faces = 0;  ///< faces found to be open sheets, each given a prism
 };
 
-/// The mesh plus, around every open sheet face (open_sheet_faces at `probe`), a closed triangular prism of
-/// half-thickness `half_thickness` (the face moved by +-half_thickness along its normal, joined by its three side
-/// walls: 8 outward-oriented triangles), listed twice, so that signs and iso-surfaces see a solid slab of about
-/// 2 * half_thickness. The sheet faces themselves stay (the mesh's vertices and faces come first, unchanged): a closed
-/// prism adds nothing to the winding number outside itself, so every point outside the slabs keeps its sign and its
-/// distance, and inside a slab the winding number is at least 2 - 0.5 (the sheet's own +-0.5 near it): inside,
-/// robustly. Inside a slab the distance is to the nearer of the sheet and the slab's walls (at most half_thickness
-/// off). Colours are kept, the prisms' vertices taking their face's first vertex colour. A mesh without rims (closed
-/// parts, possibly many, possibly touching) is returned unchanged without probing.
+/// The mesh plus a closed slab of half-thickness `half_thickness` around its open sheet faces (open_sheet_faces at
+/// `probe`), listed twice, so that signs and iso-surfaces see a solid about 2 * half_thickness thick. Faces whose
+/// normal agrees with each corner's (creases under about 60 degrees) share offset vertices, moved by
+/// +-half_thickness along the corner's angle-weighted normal over the sheet faces: a top and a bottom layer joined
+/// by walls along the region's rim (edges not shared by two such faces in opposite directions); any other sheet face
+/// (a fold, an inconsistently oriented neighbour) gets a prism of its own along its normal. The sheet faces themselves
+/// stay (the mesh's vertices and faces come first, unchanged): a closed slab adds nothing to the winding number
+/// outside itself, so every point outside the slabs keeps its sign and its distance, and inside a slab the winding
+/// number is at least 2 - 0.5 (the sheet's own +-0.5 near it): inside, robustly. Inside a slab the distance is to
+/// the nearer of the sheet and the slab's walls (at most half_thickness off). Offset vertices take the colour of the
+/// vertex they come from. A mesh without rims (closed parts, possibly many, possibly touching) is returned unchanged
+/// without probing.
 Mesh thicken_open_sheets(const Mesh& mesh, double half_thickness, double probe, SheetReport* report = nullptr,
                          double winding_beta = 2.0);
 

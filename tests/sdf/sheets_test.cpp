@@ -17,6 +17,7 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <map>
 
 using namespace sdfkit;
 namespace fs = std::filesystem;
@@ -136,7 +137,7 @@ TEST_CASE("thicken_open_sheets: every sheet face gets a closed outward prism, ot
   REQUIRE(out.F.rows() == 17);
   CHECK(out.F.row(0) == tri.F.row(0));
   CHECK(out.colors.rows() == 9);
-  CHECK(out.colors.row(8) == tri.colors.row(0));
+  for (int v = 3; v < 9; ++v) CHECK(out.colors.row(v) == tri.colors.row((v - 3) / 2));
   Mesh prism = out;
   prism.F = out.F.middleRows(1, 8);
   CHECK(out.F.middleRows(1, 8) == out.F.bottomRows(8));  // wound twice
@@ -150,6 +151,24 @@ TEST_CASE("thicken_open_sheets: every sheet face gets a closed outward prism, ot
   CHECK(WindingNumber::brute_force(out, c + Vec3(0, 0, 0.5 * t)) > 1.4);
   CHECK(WindingNumber::brute_force(out, c - Vec3(0, 0, 0.5 * t)) > 1.4);
   CHECK(WindingNumber::brute_force(out, c + Vec3(0, 0, 2 * t)) < 0.5);
+
+  // A flat 12 x 12 sheet is one slab: a top and a bottom layer, walls along the 48 rim edges only, twice; the slab
+  // is closed (every directed edge has its opposite as often) and the sheet's centre inside it.
+  const Mesh sheet = tilted_sheet();
+  const Mesh slab = thicken_open_sheets(sheet, t, 0.01, &rep);
+  CHECK(rep.sheet_faces == 288);
+  REQUIRE(slab.F.rows() == 288 + 2 * (2 * 288 + 2 * 48));
+  CHECK(slab.V.rows() == 3 * 169);
+  std::map<std::pair<int, int>, int> edges;
+  for (Eigen::Index f = 288; f < slab.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) ++edges[{slab.F(f, k), slab.F(f, (k + 1) % 3)}];
+  for (const auto& [e, n] : edges) CHECK(edges[{e.second, e.first}] == n);
+  const Vec3 mid = sheet.V.colwise().mean().transpose();
+  const Vec3 up = Vec3(slab.V.row(sheet.V.rows() + 2 * 84)) - Vec3(sheet.V.row(84));  // centre vertex's top offset
+  CHECK(up.norm() == doctest::Approx(t));
+  CHECK(WindingNumber::brute_force(slab, mid + 0.5 * up) > 1.4);
+  CHECK(WindingNumber::brute_force(slab, mid - 0.5 * up) > 1.4);
+  CHECK(std::abs(WindingNumber::brute_force(slab, mid + 2 * up)) < 0.5);
 
   // A closed mesh comes back as it is.
   const Mesh box = make_box(Vec3(-1, -1, -1), Vec3(1, 1, 1));
