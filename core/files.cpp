@@ -210,6 +210,74 @@ std::string fnv1a_hex(const std::string& bytes) {
   return buf;
 }
 
+namespace {
+
+/// `dir/rel` with every component of `rel` matched case-insensitively when the exact one is missing; "" if none.
+fs::path case_insensitive_path(const fs::path& dir, const fs::path& rel) {
+  fs::path at = dir;
+  for (const fs::path& part : rel) {
+    if (part.empty() || part == ".") continue;
+    if (part == "..") {
+      at /= part;
+      continue;
+    }
+    std::error_code ec;
+    if (fs::exists(at / part, ec)) {
+      at /= part;
+      continue;
+    }
+    std::string want = part.string();
+    std::transform(want.begin(), want.end(), want.begin(), [](unsigned char c) { return std::tolower(c); });
+    fs::path found;
+    for (fs::directory_iterator it(at.empty() ? fs::path(".") : at, ec), end; !ec && it != end; it.increment(ec)) {
+      std::string got = it->path().filename().string();
+      std::transform(got.begin(), got.end(), got.begin(), [](unsigned char c) { return std::tolower(c); });
+      // The first match in sorted order, so that the answer does not depend on the directory's order.
+      if (got == want && (found.empty() || it->path().filename() < found)) found = it->path().filename();
+    }
+    if (found.empty()) return {};
+    at /= found;
+  }
+  return at;
+}
+
+bool is_regular(const fs::path& p) {
+  std::error_code ec;
+  return !p.empty() && fs::is_regular_file(p, ec);
+}
+
+}  // namespace
+
+std::string find_referenced_file(const std::string& dir, const std::string& name) {
+  std::string n = name;
+  const auto blank = [](unsigned char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; };
+  while (!n.empty() && blank(static_cast<unsigned char>(n.back()))) n.pop_back();
+  size_t start = 0;
+  while (start < n.size() && blank(static_cast<unsigned char>(n[start]))) ++start;
+  n.erase(0, start);
+  if (n.size() >= 2 && (n.front() == '"' || n.front() == '\'') && n.back() == n.front()) n = n.substr(1, n.size() - 2);
+  std::replace(n.begin(), n.end(), '\\', '/');
+  if (n.empty()) return "";
+  const bool drive = n.size() >= 2 && std::isalpha(static_cast<unsigned char>(n[0])) && n[1] == ':';
+  if (drive) n.erase(0, 2);
+  const fs::path rel(n);
+  const fs::path base = dir.empty() ? fs::path(".") : fs::path(dir);
+  if (rel.is_absolute() && !drive && is_regular(rel)) return rel.lexically_normal().string();
+  // The path as written, then without its leading folders one by one (an absolute or foreign path whose tail is
+  // the layout beside the mesh: "f:/models/chair/Textures/wood.jpg" -> "Textures/wood.jpg" -> "wood.jpg").
+  std::vector<fs::path> parts;
+  for (const fs::path& part : rel.relative_path())
+    if (!part.empty() && part != ".") parts.push_back(part);
+  for (size_t from = 0; from < parts.size(); ++from) {
+    fs::path tail;
+    for (size_t k = from; k < parts.size(); ++k) tail /= parts[k];
+    if (is_regular(base / tail)) return (base / tail).lexically_normal().string();
+    const fs::path found = case_insensitive_path(base, tail);
+    if (is_regular(found)) return found.lexically_normal().string();
+  }
+  return "";
+}
+
 std::string extension_of(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
   if (!ext.empty() && ext[0] == '.') ext.erase(0, 1);

@@ -60,6 +60,14 @@ constexpr uint64_t kFnv1aHexStart = 1469598103934665603ULL;
 /// fnv1a(bytes, kFnv1aHexStart), printed as 16 hex digits (identifies a source file in norm.json).
 std::string fnv1a_hex(const std::string& bytes);
 
+/// The file that `name`, as a mesh file's material names it (an MTL texture map, a glTF image uri), refers to from the
+/// folder `dir`, found the way exporters' files are meant: `name` trimmed of surrounding blanks (spaces, tabs, CR)
+/// and quotes, backslashes read as slashes, a drive letter ("f:", "K:/") dropped; then, in order, an existing
+/// absolute path as written, and `dir` joined with the path without 0, 1, 2, ... of its leading folders (down to the
+/// file name alone), each exactly and then matching every component case-insensitively (the first match in sorted
+/// order). "" when none exists (only regular files count).
+std::string find_referenced_file(const std::string& dir, const std::string& name);
+
 /// Lower-case extension without the dot ("mesh.PLY" -> "ply"); "" when none.
 std::string extension_of(const std::string& path);
 

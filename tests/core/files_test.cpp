@@ -172,3 +172,29 @@ TEST_CASE("FolderLock: one holder at a time, in this process or another, release
   write_text_atomic((dir / "file").string(), "x");
   CHECK_THROWS_AS(FolderLock((dir / "file" / "sub").string()), IoError);
 }
+
+TEST_CASE("find_referenced_file: texture names as exporters write them are found beside the mesh") {
+  const fs::path dir = test::scratch_dir("files_referenced");
+  fs::remove_all(dir);
+  fs::create_directories(dir / "Textures");
+  fs::create_directories(dir / "wood.png");  // a folder named like a texture is never the answer
+  write_text_atomic((dir / "Plain001.jpg").string(), "x");
+  write_text_atomic((dir / "Textures" / "Wood.JPG").string(), "x");
+  const auto found = [&](const std::string& name) {
+    const std::string f = find_referenced_file(dir.string(), name);
+    return f.empty() ? std::string() : fs::path(f).lexically_relative(dir).string();
+  };
+  CHECK(found("Plain001.jpg") == "Plain001.jpg");
+  CHECK(found("Plain001.jpg\t\t") == "Plain001.jpg");        // an MTL line with trailing tabs
+  CHECK(found("  \"plain001.JPG\"\r") == "Plain001.jpg");    // quotes, blanks, another case
+  CHECK(found("textures\\wood.jpg") == "Textures/Wood.JPG"); // backslashes, case of every component
+  CHECK(found("f:\\models\\chair\\Textures\\wood.jpg") == "Textures/Wood.JPG");  // a drive letter and its folders
+  CHECK(found("K:/maps/PLAIN001.jpg") == "Plain001.jpg");
+  CHECK(found("/nowhere/on/this/machine/Plain001.jpg") == "Plain001.jpg");
+  CHECK(fs::path(find_referenced_file(dir.string(), (dir / "Plain001.jpg").string())) == dir / "Plain001.jpg");
+  CHECK(found("wood.png").empty());
+  CHECK(found("missing.jpg").empty());
+  CHECK(found("").empty());
+  CHECK(found(" \t").empty());
+  fs::remove_all(dir);
+}
