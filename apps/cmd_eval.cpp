@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
+#include "core/io/points.h"
 #include "core/mesh_io.h"
 #include "metrics/protocols.h"
 #include "metrics/report.h"
@@ -23,45 +24,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// Text point cloud: one point per line, first three numbers x y z (more columns ignored; '#' starts a comment).
-Mesh read_xyz(const std::string& path) {
-  std::istringstream in(read_file(path));
-  std::vector<Vec3> pts;
-  std::string line;
-  long line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
-    std::istringstream ls(line);
-    double x, y, z;
-    if (!(ls >> x)) continue;  // blank line
-    if (!(ls >> y >> z)) throw IoError(path + ":" + std::to_string(line_no) + ": expected three numbers x y z");
-    pts.emplace_back(x, y, z);
-  }
-  Mesh m;
-  m.V.resize(static_cast<Eigen::Index>(pts.size()), 3);
-  for (size_t i = 0; i < pts.size(); ++i) m.V.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
-  require(m.V.rows() > 0, path + ": no points");
-  require(m.V.allFinite(), path + ": non-finite (NaN or infinite) coordinate");
-  return m;
-}
-
 /// Mesh (obj ply off stl) or point cloud (xyz, npy N x 3+: first three columns). A point cloud has no faces.
 Mesh read_shape(const std::string& path) {
   if (!fs::exists(path)) throw IoError(path + ": no such file");
-  const std::string ext = extension_of(path);
-  if (ext == "xyz" || ext == "txt") return read_xyz(path);
-  if (ext == "npy") {
-    const MatrixXfR a = read_npy(path);
-    if (a.cols() < 3) throw IoError(path + ": .npy point cloud needs N x 3 or more columns, got N x " +
-                                    std::to_string(a.cols()));
-    Mesh m;
-    m.V = a.leftCols(3).cast<double>();
-    require(m.V.rows() > 0, path + ": no points");
-    require(m.V.allFinite(), path + ": non-finite (NaN or infinite) coordinate");
-    return m;
-  }
-  return read_mesh(path);
+  if (!has_point_cloud_extension(path)) return read_mesh(path);
+  Mesh m;
+  m.V = read_point_cloud(path);
+  return m;
 }
 
 const char* const kPredictionExtensions[] = {".obj", ".ply", ".off", ".stl", ".xyz", ".npy"};

@@ -43,12 +43,17 @@ if(SDFKIT_FUZZ)
   endif()
 endif()
 
-# sdfkit_library(NAME DEPS a b c): every *.cpp in the calling folder becomes the static library
-# sdfkit_NAME (alias sdfkit::NAME). Headers are included as "NAME/header.h" from the repository root.
-# A folder without sources yet becomes an INTERFACE target so the tree always configures.
+# sdfkit_library(NAME DEPS a b c [SUBDIRS d e]): every *.cpp in the calling folder (and in its sub-folders named by
+# SUBDIRS) becomes the static library sdfkit_NAME (alias sdfkit::NAME). Headers are included as "NAME/header.h"
+# (or "NAME/SUBDIR/header.h") from the repository root. A folder without sources yet becomes an INTERFACE target so
+# the tree always configures.
 function(sdfkit_library NAME)
-  cmake_parse_arguments(ARG "" "" "DEPS;PRIVATE_DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "" "DEPS;PRIVATE_DEPS;SUBDIRS" ${ARGN})
   file(GLOB _srcs CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)
+  foreach(_sub ${ARG_SUBDIRS})
+    file(GLOB _sub_srcs CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${_sub}/*.cpp)
+    list(APPEND _srcs ${_sub_srcs})
+  endforeach()
   if(_srcs)
     add_library(sdfkit_${NAME} STATIC ${_srcs})
     target_include_directories(sdfkit_${NAME} PUBLIC ${PROJECT_SOURCE_DIR})

@@ -1,5 +1,6 @@
-// Mesh input (OBJ, STL, glTF/GLB through assimp; PLY ascii/binary through sdfkit's own core/ply_io.h; OFF through sdfkit's
-// own reader), validation, and mesh writers (OBJ, PLY, OFF).
+// Mesh input (OBJ, STL, glTF/GLB through assimp; PLY ascii/binary and OFF through sdfkit's own readers), validation,
+// and mesh writers (OBJ, PLY, OFF, STL). One file per format in core/io/ (obj, ply, off, stl, gltf, and assimp.cpp for
+// the formats assimp parses); point clouds (.xyz, .npy) are read by core/io/points.h.
 #pragma once
 
 #include "core/types.h"
@@ -29,7 +30,8 @@ using TextureSampler =
 
 /// Read a mesh by extension (obj, ply, off, stl, gltf, glb; case-insensitive; OBJ materials' diffuse colours
 /// (Kd) and glTF base colours become vertex colours when the file has none; .ply goes through read_ply of
-/// core/ply_io.h, .off through sdfkit's OFF reader: messages give the line, counted from 1). Polygons are triangulated, identical vertices are merged, all parts are merged into one mesh in the file's global frame. Throws IoError naming
+/// core/io/ply.h, .off through sdfkit's OFF reader: messages give the line, counted from 1). Polygons are triangulated,
+/// identical vertices are merged, all parts are merged into one mesh in the file's global frame. Throws IoError naming
 /// the file when it cannot be parsed (unknown extension, truncated, malformed) and InvalidInput when it is
 /// unusable (empty, non-finite coordinates, out-of-range indices).
 /// With `textures`, parts whose material has a diffuse (glTF: base colour) texture file and UVs are coloured by

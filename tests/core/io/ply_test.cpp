@@ -1,7 +1,7 @@
 #include "core/error.h"
 #include "core/files.h"
+#include "core/io/ply.h"
 #include "core/mesh_io.h"
-#include "core/ply_io.h"
 #include "core/primitives.h"
 #include "scratch.h"
 

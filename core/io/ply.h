@@ -1,6 +1,7 @@
 // sdfkit's own PLY reader (ascii, binary little and big endian). assimp 5.2 (Debian 12) misreads some valid
 // binary PLYs (coloured procedural shapes) and no other maintained PLY reader is packaged by Debian, so this
-// one is ours. read_mesh (core/mesh_io.h) routes every .ply file here.
+// one is ours. read_mesh (core/mesh_io.h) routes every .ply file here; write_mesh writes binary little endian PLY
+// (core/io/formats.h, write_ply).
 #pragma once
 
 #include "core/types.h"

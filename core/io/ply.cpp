@@ -1,9 +1,12 @@
-#include "core/ply_io.h"
+// PLY (ascii, binary little and big endian): sdfkit's own reader (why: core/io/ply.h) and the binary writer.
+#include "core/io/ply.h"
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/io/formats.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -391,5 +394,32 @@ Mesh parse_ply(const std::string& bytes, const std::string& name, PlyInfo* info)
 }
 
 Mesh read_ply(const std::string& path, PlyInfo* info) { return parse_ply(read_file(path), path, info); }
+
+void io::write_ply(const std::string& path, const Mesh& mesh) {
+  const bool colored = mesh.has_colors();
+  write_file_atomic(path, [&](std::ostream& o) {
+    o << "ply\nformat binary_little_endian 1.0\ncomment sdfkit\nelement vertex " << mesh.V.rows()
+      << "\nproperty float x\nproperty float y\nproperty float z\n";
+    if (colored) o << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    o << "element face " << mesh.F.rows() << "\nproperty list uchar int vertex_indices\nend_header\n";
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
+      const float p[3] = {static_cast<float>(mesh.V(i, 0)), static_cast<float>(mesh.V(i, 1)),
+                          static_cast<float>(mesh.V(i, 2))};
+      o.write(reinterpret_cast<const char*>(p), sizeof p);
+      if (colored) {
+        unsigned char c[3];
+        for (int k = 0; k < 3; ++k)
+          c[k] = static_cast<unsigned char>(std::clamp(mesh.colors(i, k), 0.f, 1.f) * 255.f + 0.5f);
+        o.write(reinterpret_cast<const char*>(c), 3);
+      }
+    }
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+      const unsigned char n = 3;
+      o.write(reinterpret_cast<const char*>(&n), 1);
+      const int32_t idx[3] = {mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)};
+      o.write(reinterpret_cast<const char*>(idx), sizeof idx);
+    }
+  });
+}
 
 }  // namespace sdfkit
