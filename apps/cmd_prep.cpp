@@ -288,7 +288,11 @@ std::function<int()> setup_prep(CLI::App& app) {
               const Normalization norm = normalization_from_json(read_json(ShapeFiles(dir).norm));
               // Colours from vertex colours, else the materials' textures (one sampler per shape: its cache of
               // decoded images lives as long as the shape) or diffuse colours.
-              const Mesh coloured = to_y_up(read_mesh(j.path, nullptr, image_texture_sampler()), mine.up);
+              MeshReport textures;
+              const Mesh coloured = to_y_up(read_mesh(j.path, &textures, image_texture_sampler()), mine.up);
+              for (const std::string& t : textures.missing_textures)
+                bar.print_line(stderr, "sdfkit: warning: " + j.path + ": texture " + t +
+                                           " cannot be read; its part gets the material colour in the views");
               render_view_set(apply_normalization(coloured, norm), vdir.string(), view_settings,
                               mine.samples.seed);
             }

@@ -19,7 +19,7 @@ struct MeshReport {
   long unreferenced_vertices = 0;  ///< vertices used by no face (kept; harmless)
   long input_faces = 0;         ///< faces after triangulation, before clean-up
   long textured_parts = 0;      ///< parts coloured from a texture image (read_mesh with a TextureSampler)
-  std::vector<std::string> missing_textures;  ///< texture files named by materials that could not be read
+  std::vector<std::string> missing_textures;  ///< texture files named by materials that could not be found or read, each once
 };
 
 /// Samples the image file `path` at texture coordinates (u, v) (OBJ/glTF convention: v = 0 at the bottom row;

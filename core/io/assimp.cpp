@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -58,15 +59,27 @@ bool texture_colours(const AssimpInput& in, const aiMesh* m, std::vector<Eigen::
     return false;
   std::string name = tex.C_Str();
   if (name.empty() || name[0] == '*') return false;  // embedded (GLB): not read
-  std::replace(name.begin(), name.end(), '\\', '/');
-  const std::filesystem::path file = std::filesystem::path(in.path).parent_path() / name;
+  // Found as exporters mean it (blanks, backslashes, drive letters, case: core/files.h). A missing or unreadable
+  // file is reported once, however many parts use it.
+  const std::string folder = std::filesystem::path(in.path).parent_path().string();
+  const std::string file = find_referenced_file(folder, name);
+  const auto missing = [&](const std::string& what) {
+    if (in.missing_textures &&
+        std::find(in.missing_textures->begin(), in.missing_textures->end(), what) == in.missing_textures->end())
+      in.missing_textures->push_back(what);
+    return false;
+  };
+  if (file.empty()) {
+    std::string shown = name;
+    while (!shown.empty() && std::isspace(static_cast<unsigned char>(shown.back()))) shown.pop_back();
+    return missing((std::filesystem::path(folder) / shown).string());
+  }
   std::vector<Eigen::Vector2f> uv(m->mNumVertices);
   for (unsigned v = 0; v < m->mNumVertices; ++v) uv[v] = {m->mTextureCoords[0][v].x, m->mTextureCoords[0][v].y};
   try {
-    out = (*in.textures)(file.string(), uv);
+    out = (*in.textures)(file, uv);
   } catch (const Error&) {
-    if (in.missing_textures) in.missing_textures->push_back(file.string());
-    return false;
+    return missing(file);
   }
   if (out.size() != uv.size()) return false;
   if (in.textured_parts) ++*in.textured_parts;
