@@ -90,7 +90,7 @@ int run(const Opts& o) {
       throw InvalidInput(std::string(o.split_given ? "--split" : "--format") +
                          " applies to a dataset folder, not to one grid (the format follows -o's extension)");
     if (!is_mesh_out_path(o.out))
-      throw InvalidInput("-o " + o.out + ": one grid makes one mesh: give a .obj, .ply, .off or .stl path");
+      throw InvalidInput("-o " + o.out + ": one grid makes one mesh: give a .obj, .ply, .off, .stl or .glb path");
     const Extracted e = extract_grid(o.input, o);
     write_mesh(o.out, e.mesh);
     if (o.json)

@@ -64,7 +64,7 @@ void write_recon_outputs(const ReconResult& r, const ReconOutputPaths& paths, bo
 void check_fuse_flags(const CLI::App& app, size_t images, bool mesh_out, const std::string& out, const std::string& cam) {
   if (images < 2) throw InvalidInput("--fuse needs two or more views of the object (a folder or a list of images)");
   if (!mesh_out)
-    throw InvalidInput("-o " + out + ": --fuse writes one mesh; give a path ending in .obj, .ply, .off or .stl");
+    throw InvalidInput("-o " + out + ": --fuse writes one mesh; give a path ending in .obj, .ply, .off, .stl or .glb");
   if (cam != "est" && cam != "sidecar")
     throw InvalidInput("--fuse: every view needs its own camera: --cam sidecar (each image's <name>.json) or est");
   for (const char* f : {"--mask", "--missing", "--occlude", "--box", "--jobs", "--refine-camera", "--refine-rounds"})
@@ -127,7 +127,7 @@ std::function<int()> setup_recon(CLI::App& app) {
                  "GrabCut: --segment), composited on white and cropped like the training renders (--framing)")
       ->required();
   app.add_option("-o,--out", o->out,
-                 "output: a mesh path (.obj, .ply, .off, .stl) for one image; for a folder or list, a folder "
+                 "output: a mesh path (.obj, .ply, .off, .stl, .glb) for one image; for a folder or list, a folder "
                  "receiving <name>.<--format> per image. Beside each mesh: <name>.preview.png and the object mask "
                  "used, <name>.mask.png")
       ->required();
@@ -226,7 +226,7 @@ std::function<int()> setup_recon(CLI::App& app) {
   app.add_option("--keep-fraction", o->s.min_component_fraction,
                  "drop mesh components with fewer faces than this fraction of the largest (DISN: 0.3)")
       ->capture_default_str();
-  CLI::Option* format_opt = app.add_option("--format", o->format, "mesh format in folder mode: obj, ply, off or stl")
+  CLI::Option* format_opt = app.add_option("--format", o->format, "mesh format in folder mode: obj, ply, off, stl or glb")
       ->capture_default_str()
       ->check(CLI::IsMember(kMeshOutExtensions));
   app.add_option("--pose-distances", o->pose_distances,
@@ -300,7 +300,7 @@ std::function<int()> setup_recon(CLI::App& app) {
     const bool mesh_out = is_mesh_out_path(o->out);
     if (o->fuse) check_fuse_flags(app, inputs.size(), mesh_out, o->out, o->cam);
     if (!many && !mesh_out)
-      throw InvalidInput("-o " + o->out + ": give a mesh path ending in .obj, .ply, .off or .stl for one image");
+      throw InvalidInput("-o " + o->out + ": give a mesh path ending in .obj, .ply, .off, .stl or .glb for one image");
     if (many && mesh_out && !o->fuse)
       throw InvalidInput("-o " + o->out + ": " + o->input + " holds " + image_count(inputs.size()) +
                          "; give a folder for their meshes");

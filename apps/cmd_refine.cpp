@@ -179,7 +179,7 @@ std::function<int()> setup_refine(CLI::App& app) {
     s.uniform_albedo = o->albedo == "uniform";
     const std::string ext = extension_of(o->out);
     if (ext != "obj" && ext != "ply" && ext != "off" && ext != "stl")
-      throw InvalidInput("-o " + o->out + ": give a mesh path ending in .obj, .ply, .off or .stl");
+      throw InvalidInput("-o " + o->out + ": give a mesh path ending in .obj, .ply, .off, .stl or .glb");
     validate_refine_settings(s);
     std::vector<std::string> only;
     for (size_t a = 0; !o->names.empty() && a <= o->names.size();) {

@@ -77,7 +77,7 @@ std::function<int()> setup_render(CLI::App& app) {
     if (!o->mesh_out.empty()) {
       const std::string e = extension_of(o->mesh_out);
       if (e != "obj" && e != "ply" && e != "off" && e != "stl")
-        throw InvalidInput("--mesh-out " + o->mesh_out + ": give a mesh path ending in .obj, .ply, .off or .stl");
+        throw InvalidInput("--mesh-out " + o->mesh_out + ": give a mesh path ending in .obj, .ply, .off, .stl or .glb");
     }
 
     const auto t0 = std::chrono::steady_clock::now();

@@ -34,7 +34,7 @@ bool register_command(Command command) {
   return true;
 }
 
-const std::vector<std::string> kMeshOutExtensions = {"obj", "ply", "off", "stl"};
+const std::vector<std::string> kMeshOutExtensions = {"obj", "ply", "off", "stl", "glb"};
 
 bool is_mesh_out_path(const std::string& path) {
   const std::string e = extension_of(path);

@@ -227,8 +227,10 @@ void write_mesh(const std::string& path, const Mesh& mesh) {
     io::write_off(path, mesh);
   else if (ext == "stl")
     io::write_stl(path, mesh);
+  else if (ext == "glb")
+    io::write_glb(path, mesh);
   else
-    throw InvalidInput(path + ": cannot write mesh with extension '." + ext + "' (use .obj, .ply, .off or .stl)");
+    throw InvalidInput(path + ": cannot write mesh with extension '." + ext + "' (use .obj, .ply, .off, .stl or .glb)");
 }
 
 Mesh concatenate(const Mesh& a, const Mesh& b) {

@@ -61,7 +61,7 @@ Mesh validate_mesh(const Mesh& mesh, const std::string& what, MeshReport* report
 
 /// Write by extension: .obj (with "v x y z r g b" colours when present), .ply (binary little endian, uchar
 /// colours when present), .off, .stl (binary). Atomic (temporary file + rename). Throws InvalidInput on non-finite
-/// coordinates: sdfkit never writes a NaN to disk.
+/// coordinates: sdfkit never writes a NaN to disk. .glb: binary glTF 2.0 with COLOR_0 vertex colours (core/glb.h).
 void write_mesh(const std::string& path, const Mesh& mesh);
 
 /// Concatenate meshes (faces re-indexed; colours kept when every part has them).

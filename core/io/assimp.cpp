@@ -2,6 +2,7 @@
 // of the format, then assimp's importer; the scene's parts are flattened into one mesh in the file's global frame.
 #include "core/files.h"
 #include "core/io/formats.h"
+#include "core/glb.h"
 
 #include <assimp/Importer.hpp>
 #include <assimp/material.h>
@@ -44,6 +45,7 @@ struct AssimpInput {
   const TextureSampler* textures = nullptr;
   long* textured_parts = nullptr;
   std::vector<std::string>* missing_textures = nullptr;
+  bool linear_colours = false;  ///< glTF: COLOR_0 holds linear values, sdfkit's colours are sRGB
 };
 
 /// Per-vertex colours of mesh `m` from its material's diffuse (or glTF base colour) texture file, sampled at the
@@ -104,7 +106,8 @@ void append_node(const AssimpInput& in, const aiNode* node, const aiMatrix4x4& p
       V.emplace_back(p.x, p.y, p.z);
       if (colored) {
         const aiColor4D c = m->mColors[0][v];
-        C.emplace_back(c.r, c.g, c.b);
+        if (in.linear_colours) C.emplace_back(linear_to_srgb(c.r), linear_to_srgb(c.g), linear_to_srgb(c.b));
+        else C.emplace_back(c.r, c.g, c.b);
       } else if (from_texture) {
         C.push_back(textured[v]);
       } else if (from_material) {
@@ -162,6 +165,7 @@ RawMesh read_with_assimp(const std::string& path, const std::string& ext, const 
   in.textures = &textures;
   in.textured_parts = &report.textured_parts;
   in.missing_textures = &report.missing_textures;
+  in.linear_colours = ext == "gltf" || ext == "glb";
   RawMesh raw;
   append_node(in, scene->mRootNode, aiMatrix4x4(), raw.V, raw.F, raw.C, raw.colored);
   return raw;

@@ -75,5 +75,6 @@ void write_obj(const std::string& path, const Mesh& mesh);  ///< core/io/obj.cpp
 void write_ply(const std::string& path, const Mesh& mesh);  ///< core/io/ply.cpp
 void write_off(const std::string& path, const Mesh& mesh);  ///< core/io/off.cpp
 void write_stl(const std::string& path, const Mesh& mesh);  ///< core/io/stl.cpp
+void write_glb(const std::string& path, const Mesh& mesh);  ///< core/io/gltf.cpp (encoded by core/glb.h)
 
 }  // namespace sdfkit::io

@@ -1,6 +1,8 @@
 // glTF 2 (.gltf JSON and .glb binary): sdfkit's structural checks before assimp reads the file
-// (core/io/assimp.cpp). sdfkit writes no glTF.
+// (core/io/assimp.cpp), and the .glb writer (the encoding is core/glb.h's).
 #include "core/io/formats.h"
+#include "core/files.h"
+#include "core/glb.h"
 #include "core/json.h"
 
 #include <cstdint>
@@ -47,6 +49,16 @@ void check_glb(const std::string& path, const std::string& data) {
     if (index == 0) check_gltf_json(path, data.substr(at + 8, length), "its JSON chunk");
     at += 8 + static_cast<size_t>(length);
   }
+}
+
+void write_glb(const std::string& path, const Mesh& mesh) {
+  std::string bytes;
+  try {
+    bytes = encode_glb(mesh);
+  } catch (const InvalidInput& e) {
+    fail_input(path, e.what());
+  }
+  write_file_atomic(path, [&](std::ostream& o) { o.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
 }
 
 }  // namespace sdfkit::io
