@@ -222,17 +222,20 @@ const consoleError=console.error;console.error=function(){noteError(Array.protot
 const viewers=Array.from(document.querySelectorAll('model-viewer[data-k]'));
 function update(){let r=0,l=0,f=0;for(const v of viewers){const s=v.dataset.state;if(s!=='idle')r++;if(s==='loaded')l++;if(s==='failed')f++;}
   body.dataset.requested=r;body.dataset.loaded=l;body.dataset.failed=f;
-  if(r>0&&l+f===r&&!body.dataset.ready){body.dataset.ready='1';if(location.hash==='#check')check();}}
+  if(r>0&&l+f===r&&!body.dataset.ready){body.dataset.ready='1';body.dataset.readyMs=Math.round(performance.now());if(location.hash==='#check')check();}}
 // #check (scripts/check_report): each loaded model's rendered frame is tested for more than one colour, the first
-// model's place is recorded for cropping a screenshot, and the moment is logged (the log's clock is the wall's).
-function check(){let blank=0;for(const v of viewers){if(v.dataset.state!=='loaded')continue;
-    const img=new Image();img.onload=function(){const c=document.createElement('canvas');c.width=img.width;c.height=img.height;
-      const g=c.getContext('2d');g.drawImage(img,0,0);const d=g.getImageData(0,0,c.width,c.height).data;const seen=new Set();
-      for(let i=0;i<d.length&&seen.size<3;i+=4)seen.add(d[i]<<16|d[i+1]<<8|d[i+2]);v.dataset.colours=seen.size;};
-    img.src=v.toDataURL('image/png');}
+// model's place is recorded for cropping a screenshot. body's data-ready-ms: milliseconds from the navigation's
+// start to every model requested so far (those in view) loaded.
+function colours(v,tries){const img=new Image();img.onload=function(){const c=document.createElement('canvas');
+    c.width=img.width;c.height=img.height;const g=c.getContext('2d');g.drawImage(img,0,0);
+    const d=g.getImageData(0,0,c.width,c.height).data;const seen=new Set();
+    for(let i=0;i<d.length&&seen.size<3;i+=4)seen.add(d[i]<<16|d[i+1]<<8|d[i+2]);
+    if(seen.size<2&&tries>0)setTimeout(function(){colours(v,tries-1);},250);else v.dataset.colours=seen.size;};
+  img.src=v.toDataURL('image/png');}
+function check(){for(const v of viewers)if(v.dataset.state==='loaded')colours(v,20);  // a first frame may be pending
   const first=viewers.find(function(v){return v.dataset.state==='loaded';});
   if(first){const b=first.getBoundingClientRect();body.dataset.firstViewer=[b.left,b.top,b.width,b.height].map(Math.round).join(',');}
-  console.log('sdfkit-report: ready');}
+}
 window.sdfkitModel=function(k,b64){const v=document.getElementById('mv'+k);const s=atob(b64);const a=new Uint8Array(s.length);
   for(let i=0;i<s.length;i++)a[i]=s.charCodeAt(i);v.src=URL.createObjectURL(new Blob([a],{type:'model/gltf-binary'}));};
 function request(v){if(v.dataset.state!=='idle')return;v.dataset.state='requested';update();
@@ -348,7 +351,6 @@ ReportSummary write_report(const Json& records_in, const std::string& base_dir, 
   std::ostringstream h;
   h << "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
     << "<meta name=\"generator\" content=\"sdfkit report\">\n<title>" << html_escape(settings.title) << "</title>\n"
-    << "<script>if(location.hash==='#check')console.log('sdfkit-report: start');</script>\n"
     << "<style>" << kStyle << "</style>\n<script src=\"viewer/" << kViewerScript << "\"></script>\n</head>\n<body>\n"
     << "<h1>" << html_escape(settings.title) << "</h1>\n<p>" << sum.items << " items, " << sum.failed << " failed"
     << (settings.gt_dir.empty() ? std::string(", no ground truth given")
@@ -392,7 +394,7 @@ ReportSummary write_report(const Json& records_in, const std::string& base_dir, 
     if (it.image) h << "<img class=\"input\" loading=\"lazy\" src=\"items/" << k << ".jpg\" alt=\"input\">";
     h << "</td><td>";
     if (it.model)
-      h << "<model-viewer id=\"mv" << k << "\" data-k=\"" << k << "\" camera-controls disable-zoom "
+      h << "<model-viewer id=\"mv" << k << "\" data-k=\"" << k << "\" loading=\"eager\" camera-controls disable-zoom "
         << "interaction-prompt=\"none\" shadow-intensity=\"0\" exposure=\"1.1\" alt=\"" << html_escape(it.name)
         << "\"></model-viewer>";
     else
