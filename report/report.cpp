@@ -201,7 +201,8 @@ body{font:14px/1.4 system-ui,sans-serif;margin:1.5em;color:#222}
 table{border-collapse:collapse}td,th{border-bottom:1px solid #ddd;padding:4px 8px;text-align:left;vertical-align:middle}
 th.sort{cursor:pointer;user-select:none}th.sort:after{content:" \2195";color:#999}
 td.num{text-align:right;font-variant-numeric:tabular-nums}
-model-viewer{width:320px;height:200px;background:#f4f4f4;--poster-color:#f4f4f4}
+div.view{width:320px;height:200px;background:#f4f4f4}model-viewer{width:100%;height:100%;--poster-color:#f4f4f4}
+model-viewer::part(default-progress-bar){display:none}
 img.input{max-width:160px;max-height:160px}
 .warn{color:#a60;font-size:12px;max-width:24em}.fail{color:#b00}
 #errors{color:#b00;white-space:pre-wrap}
@@ -209,8 +210,8 @@ img.input{max-width:160px;max-height:160px}
 )";
 
 // The page's script: lazy loading (a model's script is added when its row comes near the view), the sort, and a
-// record of what happened in the DOM (body's data-items/-requested/-loaded/-failed/-errors, each model-viewer's
-// data-state, #errors) for people and for the browser test (scripts/check_report).
+// record of what happened in the DOM (body's data-items/-requested/-loaded/-failed/-errors/-ready-ms, each
+// model-viewer's data-state, #errors) for people and for the browser test (scripts/check_report).
 const char* kScript = R"(
 (function(){
 const body=document.body, errors=[];
@@ -219,9 +220,11 @@ function noteError(m){errors.push(String(m));const e=document.getElementById('er
 window.addEventListener('error',function(e){noteError(e.message||('cannot load '+(e.target&&(e.target.src||e.target.href))));},true);
 window.addEventListener('unhandledrejection',function(e){noteError('unhandled rejection: '+e.reason);});
 const consoleError=console.error;console.error=function(){noteError(Array.prototype.join.call(arguments,' '));consoleError.apply(console,arguments);};
-const viewers=Array.from(document.querySelectorAll('model-viewer[data-k]'));
-function update(){let r=0,l=0,f=0;for(const v of viewers){const s=v.dataset.state;if(s!=='idle')r++;if(s==='loaded')l++;if(s==='failed')f++;}
-  body.dataset.requested=r;body.dataset.loaded=l;body.dataset.failed=f;
+// A row holds an empty slot (div.view) until it nears the window; then its model-viewer is made and its model's
+// script added: 500 viewer elements made up front would cost the page seconds.
+const slots=Array.from(document.querySelectorAll('div.view[data-k]')), viewers=[];
+function update(){let l=0,f=0;for(const v of viewers){const s=v.dataset.state;if(s==='loaded')l++;if(s==='failed')f++;}
+  const r=viewers.length;body.dataset.requested=r;body.dataset.loaded=l;body.dataset.failed=f;
   if(r>0&&l+f===r&&!body.dataset.ready){body.dataset.ready='1';body.dataset.readyMs=Math.round(performance.now());if(location.hash==='#check')check();}}
 // #check (scripts/check_report): each loaded model's rendered frame is tested for more than one colour, the first
 // model's place is recorded for cropping a screenshot. body's data-ready-ms: milliseconds from the navigation's
@@ -238,14 +241,18 @@ function check(){for(const v of viewers)if(v.dataset.state==='loaded')colours(v,
 }
 window.sdfkitModel=function(k,b64){const v=document.getElementById('mv'+k);const s=atob(b64);const a=new Uint8Array(s.length);
   for(let i=0;i<s.length;i++)a[i]=s.charCodeAt(i);v.src=URL.createObjectURL(new Blob([a],{type:'model/gltf-binary'}));};
-function request(v){if(v.dataset.state!=='idle')return;v.dataset.state='requested';update();
-  const s=document.createElement('script');s.src='items/'+v.dataset.k+'.js';
-  s.onerror=function(){v.dataset.state='failed';update();};document.head.appendChild(s);}
-for(const v of viewers){v.dataset.state='idle';
+function request(slot){const k=slot.dataset.k,v=document.createElement('model-viewer');
+  v.id='mv'+k;v.dataset.k=k;v.dataset.state='requested';v.alt=slot.dataset.name;
+  // eager: load as soon as src is set (model-viewer's own lazy rule would wait for the element to be in view)
+  for(const [a,x] of [['loading','eager'],['camera-controls',''],['disable-zoom',''],['interaction-prompt','none'],
+      ['shadow-intensity','0'],['exposure','1.1'],['camera-orbit','30deg 70deg auto']])v.setAttribute(a,x);
   v.addEventListener('load',function(){v.dataset.state='loaded';update();});
-  v.addEventListener('error',function(e){v.dataset.state='failed';noteError('model '+v.dataset.k+': '+(e.detail&&e.detail.type));update();});}
+  v.addEventListener('error',function(e){v.dataset.state='failed';noteError('model '+k+': '+(e.detail&&e.detail.type));update();});
+  slot.appendChild(v);viewers.push(v);update();
+  const s=document.createElement('script');s.src='items/'+k+'.js';
+  s.onerror=function(){v.dataset.state='failed';update();};document.head.appendChild(s);}
 const io=new IntersectionObserver(function(es){for(const e of es)if(e.isIntersecting){io.unobserve(e.target);request(e.target);}},{rootMargin:'200px'});
-for(const v of viewers)io.observe(v);
+for(const v of slots)io.observe(v);
 body.dataset.items=document.querySelectorAll('#items tbody tr').length;update();
 // Sorting: a click on a column's header sorts by it (again: the other way); empty cells last.
 for(const th of document.querySelectorAll('#items th.sort')){th.addEventListener('click',function(){
@@ -368,7 +375,7 @@ ReportSummary write_report(const Json& records_in, const std::string& base_dir, 
     h << "<tr><td>" << html_escape(cat == "\x7f" "all" ? std::string("all") : cat) << "</td><td class=\"num\">" << m.n
       << "</td><td class=\"num\">" << m.failed << "</td>";
     for (size_t s = 0; s <= std::size(kScores); ++s)
-      h << "<td class=\"num\">" << (m.count[s] > 0 ? fixed(m.total[s] / m.count[s], s == std::size(kScores) ? 2 : 2) : "")
+      h << "<td class=\"num\">" << (m.count[s] > 0 ? fixed(m.total[s] / m.count[s], 2) : "")
         << "</td>";
     h << "</tr>\n";
   }
@@ -394,9 +401,7 @@ ReportSummary write_report(const Json& records_in, const std::string& base_dir, 
     if (it.image) h << "<img class=\"input\" loading=\"lazy\" src=\"items/" << k << ".jpg\" alt=\"input\">";
     h << "</td><td>";
     if (it.model)
-      h << "<model-viewer id=\"mv" << k << "\" data-k=\"" << k << "\" loading=\"eager\" camera-controls disable-zoom "
-        << "interaction-prompt=\"none\" shadow-intensity=\"0\" exposure=\"1.1\" alt=\"" << html_escape(it.name)
-        << "\"></model-viewer>";
+      h << "<div class=\"view\" data-k=\"" << k << "\" data-name=\"" << html_escape(it.name) << "\"></div>";
     else
       h << "<span class=\"fail\">failed: " << html_escape(it.error) << "</span>";
     h << "</td>";

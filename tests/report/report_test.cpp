@@ -75,7 +75,7 @@ TEST_CASE("write_report: one row per record, failures shown, scores against the 
   CHECK(sum.scored == 2);
   const std::string html = slurp(out / "index.html");
   CHECK(count_of(html, "<tr><td class=\"num\" data-v=") == 4);
-  CHECK(count_of(html, "<model-viewer id=") == 2);
+  CHECK(count_of(html, "<div class=\"view\" data-k=") == 2);
   CHECK(html.find("car_3.png: no object found") != std::string::npos);
   CHECK(html.find("a &lt;warning&gt;") != std::string::npos);
   CHECK(fs::exists(out / "items" / "0.js"));
