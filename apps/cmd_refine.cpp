@@ -177,8 +177,7 @@ std::function<int()> setup_refine(CLI::App& app) {
     s.time_limit_seconds = o->minutes * 60.0;
     s.w_adversarial = o->adversarial ? o->w_adversarial : 0.0;
     s.uniform_albedo = o->albedo == "uniform";
-    const std::string ext = extension_of(o->out);
-    if (ext != "obj" && ext != "ply" && ext != "off" && ext != "stl")
+    if (!is_mesh_out_path(o->out))
       throw InvalidInput("-o " + o->out + ": give a mesh path ending in .obj, .ply, .off, .stl or .glb");
     validate_refine_settings(s);
     std::vector<std::string> only;

@@ -64,7 +64,8 @@ std::function<int()> setup_render(CLI::App& app) {
                "render the mesh as it is; by default it is first mapped to the unit sphere (centre = area-weighted "
                "centroid, farthest vertex at radius 1) and the mapping is saved as norm.json");
   app.add_option("--mesh-out", o->mesh_out,
-                 "also write the mesh as rendered, in the views' object frame (.obj .ply .off .stl): the ground truth "
+                 "also write the mesh as rendered, in the views' object frame (.obj .ply .off .stl .glb; OBJ, PLY and GLB keep "
+                 "its colours, textures sampled at the vertices): the ground truth "
                  "that `refine` results and `eval` compare against");
   app.add_flag("--json", o->json, "print a JSON summary on stdout");
   return [o] {
@@ -75,8 +76,7 @@ std::function<int()> setup_render(CLI::App& app) {
     st.occlusion.mode = parse_occlusion_mode(o->occlude);
     validate_view_set_settings(st);
     if (!o->mesh_out.empty()) {
-      const std::string e = extension_of(o->mesh_out);
-      if (e != "obj" && e != "ply" && e != "off" && e != "stl")
+      if (!is_mesh_out_path(o->mesh_out))
         throw InvalidInput("--mesh-out " + o->mesh_out + ": give a mesh path ending in .obj, .ply, .off, .stl or .glb");
     }
 

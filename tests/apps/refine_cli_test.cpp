@@ -67,7 +67,7 @@ TEST_CASE("sdfkit refine: a sphere fitted to a rendered box, files beside the me
   // Errors: one line, non-zero exit, naming the problem.
   r = test::run_sdfkit("refine " + views + " -o " + (dir / "x.txt").string());
   CHECK(r.code != 0);
-  CHECK(r.err.find("x.txt: give a mesh path ending in .obj, .ply, .off or .stl") != std::string::npos);
+  CHECK(r.err.find("x.txt: give a mesh path ending in .obj, .ply, .off, .stl or .glb") != std::string::npos);
   r = test::run_sdfkit("refine " + (dir / "nothing").string() + " -o " + out);
   CHECK(r.code != 0);
   CHECK(r.err.find("nothing: not a folder of views") != std::string::npos);
