@@ -9,9 +9,9 @@
 #include "core/files.h"
 #include "core/json.h"
 #include "core/mesh_io.h"
-#include "nets/pose_train.h"
 #include "sdf/prepare.h"
 #include "sdf/symmetry.h"
+#include "train/pose_train.h"
 
 #include <chrono>
 #include <cmath>

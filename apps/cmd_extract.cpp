@@ -8,8 +8,8 @@
 #include "core/mesh_io.h"
 #include "extract/adaptive.h"
 #include "extract/cleanup.h"
-#include "nets/dataset.h"
 #include "sdf/sparse_sdf.h"
+#include "train/dataset.h"
 
 #include <algorithm>
 #include <cmath>

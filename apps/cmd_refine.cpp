@@ -118,7 +118,7 @@ std::function<int()> setup_refine(CLI::App& app) {
                                             "sphere, 1, the paper's, from a mesh file)")
                                  ->check(non_negative());
   app.add_flag("--adversarial", o->adversarial,
-               "train the paper's critic (dense blocks + self-attention, nets/critic.h) against the renders and add "
+               "train the paper's critic (dense blocks + self-attention, models/critic.h) against the renders and add "
                "its verdict to the loss");
   app.add_option("--w-adversarial", o->w_adversarial, "weight of the adversarial term with --adversarial")
       ->check(non_negative())

@@ -5,10 +5,10 @@
 #include "core/json.h"
 #include "core/mesh_io.h"
 #include "nets/comm.h"
-#include "nets/pose_train.h"
 #include "recon/framing.h"
 #include "sdf/prepare.h"
 #include "sdf/symmetry.h"
+#include "train/pose_train.h"
 
 #include <cmath>
 #include <cstdio>

@@ -4,8 +4,8 @@
 #include "core/files.h"
 #include "core/json.h"
 #include "nets/comm.h"
-#include "nets/sdf_train.h"
 #include "recon/framing.h"
+#include "train/sdf_train.h"
 
 #include <cstdio>
 #include <iostream>

@@ -1,9 +1,9 @@
-// `sdfkit train seg --data DIR --backgrounds B -o MODEL`: train the foreground segmenter (nets/seg_net.h) on renders
+// `sdfkit train seg --data DIR --backgrounds B -o MODEL`: train the foreground segmenter (models/seg_net.h) on renders
 // of a prepared dataset composited onto background photos and procedural backgrounds.
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/json.h"
-#include "nets/seg_train.h"
+#include "train/seg_train.h"
 
 #include <cstdio>
 #include <iostream>

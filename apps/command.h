@@ -5,6 +5,7 @@
 #include "camera/image.h"
 #include "core/json.h"
 #include "recon/framing.h"
+#include "train/dataset.h"
 
 #include <CLI/CLI.hpp>
 
@@ -79,7 +80,7 @@ bool is_list_path(const std::string& path);
 /// it is missing or holds no image.
 std::vector<std::string> collect_inputs(const std::string& input);
 
-/// The segmenter network of `model_path` (nets/seg_net.h) as framing.segmenter and framing.segmenter_batch: one
+/// The segmenter network of `model_path` (models/seg_net.h) as framing.segmenter and framing.segmenter_batch: one
 /// network shared by both and by every thread, each call holding a lock (the network keeps its activations).
 void use_shared_segmenter(sdfkit::FramingSettings& framing, const std::string& model_path);
 

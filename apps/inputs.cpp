@@ -2,7 +2,7 @@
 #include "apps/command.h"
 #include "core/error.h"
 #include "core/files.h"
-#include "nets/seg_net.h"
+#include "models/seg_net.h"
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>

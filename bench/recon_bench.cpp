@@ -7,9 +7,9 @@
 #include "core/json.h"
 #include "core/mesh_io.h"
 #include "metrics/protocols.h"
-#include "nets/dataset.h"
 #include "nets/plot.h"
 #include "recon/recon.h"
+#include "train/dataset.h"
 
 #include <algorithm>
 #include <cmath>

@@ -4,8 +4,8 @@
 #include "bench/timing.h"
 #include "core/error.h"
 #include "core/json.h"
-#include "nets/pose_train.h"
-#include "nets/sdf_train.h"
+#include "train/pose_train.h"
+#include "train/sdf_train.h"
 
 #include <tbb/global_control.h>
 

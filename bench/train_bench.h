@@ -5,8 +5,8 @@
 #pragma once
 
 #include "core/json_fwd.h"
-#include "nets/pose_net.h"
-#include "nets/sdf_net.h"
+#include "models/pose_net.h"
+#include "models/sdf_net.h"
 
 #include <functional>
 #include <map>

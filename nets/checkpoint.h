@@ -1,4 +1,4 @@
-// Checkpoint files: one JSON header + one flat float32 buffer + a checksum (STYLE.md item 8).
+// Checkpoint files: one JSON header + one flat float32 buffer (nets/layer.h ParamStore) + a checksum (docs/nets.md).
 //
 // Binary layout (little endian):
 //   8 bytes  magic "SDFKITCK"

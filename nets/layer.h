@@ -1,10 +1,16 @@
-// The layer interface and the flat parameter buffer (tiny-cuda-nn's "object" idea, STYLE.md item 8):
-// a network's parameters live in ONE flat buffer (and its gradients in a second one of the same size);
-// every layer is bound to a slice of it. Checkpoints and optimisers then see a single float vector.
+// The layer interface and the flat parameter buffer (docs/nets.md, "Conventions"): a network's parameters live in
+// ONE flat buffer (and its gradients in a second one of the same size); every layer is bound to a slice of it.
+// Checkpoints and optimisers then see a single float vector.
 //
-// A layer is stateless between calls: forward(x, y) computes y; backward(x, y, dy, dx) receives the same x and
-// y again (the caller keeps activations), ADDS its parameter gradients into its gradient slice and writes dx
-// (skipped when dx is null). The inference path binds no gradient buffer at all (bind(w, nullptr)).
+// forward(x, y) computes y; backward(x, y, dy, dx) receives the same x and y again (the caller keeps activations),
+// ADDS its parameter gradients into its gradient slice and writes dx (skipped when dx is null). The inference path
+// binds no gradient buffer at all (bind(w, nullptr)). Most layers keep nothing between calls; three keep what their
+// backward needs from the last forward, so each of them runs one forward/backward pair at a time:
+//   - Sequential (layers.h) keeps its layers' activations in training(true) mode; forward_into / backward_from and
+//     run keep nothing (the caller owns the activations);
+//   - SpectralConv2d (gan_layers.h) keeps its power-iteration vectors and normalised weights (freeze(true) holds
+//     them);
+//   - DenseBlock (gan_layers.h) keeps its inner activations.
 //
 // Threading: layers parallelise over the batch (or rows) with TBB. Work is cut into chunks that depend only on
 // the tensor sizes, never on the number of threads, and per-chunk parameter gradients are summed in chunk order,

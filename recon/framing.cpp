@@ -1,7 +1,7 @@
 #include "recon/framing.h"
 
 #include "core/error.h"
-#include "nets/dataset.h"
+#include "models/net_input.h"
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -430,12 +430,6 @@ std::string segmentation_name(Segmentation s) {
     case Segmentation::kNet: return "net";
   }
   return "auto";
-}
-
-void frame_like_recon(ReframeAugmentSettings& r, const TrainingFraming& tf) {
-  r.extent = tf.extent;
-  r.centre_dx = tf.centre_dx;
-  r.centre_dy = tf.centre_dy;
 }
 
 Reframing parse_reframing(const std::string& name) {

@@ -9,7 +9,7 @@
 
 #include "camera/camera.h"
 #include "camera/image.h"
-#include "nets/dataset.h"
+#include "models/net_input.h"
 
 #include <functional>
 #include <optional>
@@ -24,7 +24,7 @@ enum class Segmentation {
              ///< mask refined by GrabCut (seeded with it) when FramingSettings::segmenter is set, else GrabCut
   kNone,     ///< none: the image is used as it is (its non-white pixels are the object)
   kGrabCut,  ///< OpenCV's GrabCut seeded from the border (or from FramingSettings::box)
-  kNet,      ///< the segmenter network (FramingSettings::segmenter, nets/seg_net.h)
+  kNet,      ///< the segmenter network (FramingSettings::segmenter, models/seg_net.h)
 };
 /// "auto", "none", "grabcut", "net" <-> Segmentation; InvalidInput for another name.
 Segmentation parse_segmentation(const std::string& name);
@@ -46,25 +46,6 @@ struct PixelBox {
 /// "X,Y,W,H" -> PixelBox; InvalidInput naming the text otherwise.
 PixelBox parse_pixel_box(const std::string& text);
 
-/// Object framing of the training renders (DISN's 137 px renders of objects in the unit sphere, camera 2.45-3.0
-/// radii away, elevation 25-30 degrees), measured over the 24,960 views of the 1040 training shapes of
-/// `scripts/build_benchmark --preset full` (docs/recon.md, "Input and framing"): the object's box has a longer side
-/// of 0.27 / 0.42 / 0.67 / 0.82 / 0.97 of the image (minimum / 5th / 50th / 95th percentile / maximum); its centre
-/// lies dx = 0.00 (-0.14..0.15) and dy = +0.03 (-0.20..0.17) image sides from the image centre (median, range).
-/// An image is "framed like the renders" (kept as it is by Reframing::kAuto) within these ranges plus a margin.
-struct TrainingFraming {
-  double extent = 0.67;            ///< median longer side of the object's box / image side
-  double extent_min = 0.25;        ///< smallest object size kept as it is (the renders' minimum - 0.02)
-  double extent_max = 1.0;         ///< largest
-  double centre_dx = 0.0;          ///< median box centre - image centre, in image sides (x right)
-  double centre_dy = 0.033;        ///< same, y down
-  double centre_tolerance = 0.25;  ///< largest distance of the box centre from the median kept as it is
-};
-
-/// Point the training reframing augmentation (`train sdf|pose --aug-reframe`) at this framing, so that training
-/// shows the networks what frame_input gives them: extent and centre offsets from `tf`, the rest of `r` kept.
-void frame_like_recon(ReframeAugmentSettings& r, const TrainingFraming& tf = {});
-
 struct FramingSettings {
   Segmentation segment = Segmentation::kAuto;
   Reframing reframe = Reframing::kAuto;
@@ -84,11 +65,11 @@ struct FramingSettings {
   /// GrabCut runs on the image shrunk to at most this many pixels on its longer side.
   int grabcut_max_side = 400;
   int grabcut_iterations = 5;
-  /// The segmenter network (`recon --segment net`, nets/seg_net.h predict_foreground): the foreground probability
+  /// The segmenter network (`recon --segment net`, models/seg_net.h predict_foreground): the foreground probability
   /// of every pixel of an RGB image (1 channel, the image's size). Used by kNet, and by kAuto to seed GrabCut
   /// when set. Called from several threads at once when recon runs images in parallel. Empty = no network.
   std::function<Image(const Image& rgb)> segmenter;
-  /// Optional: the same network reading several images in one call (nets/seg_net.h's batch predict_foreground),
+  /// Optional: the same network reading several images in one call (models/seg_net.h's batch predict_foreground),
   /// the answers in order, each as `segmenter` would give it. The window scan's readings go through it, round by
   /// round (seven images at a time on a photo); empty = `segmenter` one image at a time.
   std::function<std::vector<Image>(const std::vector<Image>& rgbs)> segmenter_batch;
@@ -210,7 +191,7 @@ void recrop(FramedInput& framed, const Image& image, const SquareCrop& crop);
 Image frame_channel(const Image& channel, const FramedInput& framed);
 
 /// The unmasked network input of `framed` (frame_input's answer for `image`), as an SDF network whose fourth channel
-/// is the object's mask reads it (SdfNetConfig::MaskChannel::kObject, nets/context.h): 4 x 137 x 137 channels-first,
+/// is the object's mask reads it (SdfNetConfig::MaskChannel::kObject, train/context.h): 4 x 137 x 137 channels-first,
 /// the input's pixels through the crop (RGB, an alpha composited on white, the crop's part outside the input white)
 /// and the object's coverage (framed.image's alpha). InvalidInput when `image` is not the one framed.
 Eigen::VectorXf context_input(const Image& image, const FramedInput& framed);

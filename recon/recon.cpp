@@ -5,11 +5,9 @@
 #include "core/error.h"
 #include "extract/adaptive.h"
 #include "extract/cleanup.h"
-#include "nets/context.h"
-#include "nets/dataset.h"
-#include "nets/pose_net.h"
-#include "nets/pose_train.h"
-#include "nets/sdf_train.h"
+#include "models/net_input.h"
+#include "models/pose_net.h"
+#include "models/sdf_net.h"
 #include "sdf/normalize.h"
 
 #include <algorithm>
@@ -45,7 +43,7 @@ void paste_rgb_on_white(const Image& rgba, Image& dst, int x0) {
     }
 }
 
-/// Pixel i of a 3 x 137 x 137 network input is foreground when it is ink (nets/dataset.h).
+/// Pixel i of a 3 x 137 x 137 network input is foreground when it is ink (train/dataset.h).
 bool is_foreground(const Eigen::VectorXf& input, int i) {
   const int n = kNetImageSize * kNetImageSize;
   return is_ink(input[i], input[n + i], input[2 * n + i]);
@@ -57,7 +55,7 @@ Eigen::VectorXf flip_network_input(const Eigen::VectorXf& input, int size) {
   const Eigen::Index plane = static_cast<Eigen::Index>(size) * size;
   require(size > 0 && input.size() > 0 && input.size() % plane == 0,
           "flip_network_input: input is not C x " + std::to_string(size) + " x " + std::to_string(size));
-  // One row of a batch, flipped as the pose network flips its batches (nets/pose_net.h flip_images).
+  // One row of a batch, flipped as the pose network flips its batches (models/pose_net.h flip_images).
   const MatrixXfR flipped = flip_images(Eigen::Map<const MatrixXfR>(input.data(), 1, input.size()), size);
   return Eigen::Map<const Eigen::VectorXf>(flipped.data(), flipped.size());
 }
@@ -329,7 +327,7 @@ Mesh Reconstructor::reconstruct(const std::vector<ViewRef>& views, const ReconSe
   require(!views.empty(), what + ": no views to reconstruct from");
   auto t = Clock::now();
   // Per view: RGB (3 x 137 x 137) or RGB + missing-data mask (4 x ...), as the SDF network reads it
-  // (nets/dataset.h), encoded once; with the mirror TTA also the flipped input through the mirrored camera.
+  // (train/dataset.h), encoded once; with the mirror TTA also the flipped input through the mirrored camera.
   const Eigen::Index n = kNetImageSize * kNetImageSize;
   std::vector<SdfNet::ShapeCode> codes, mirrored;
   for (const ViewRef& v : views) {

@@ -13,8 +13,8 @@
 #include "camera/image.h"
 #include "core/types.h"
 #include "extract/cleanup.h"
-#include "nets/pose_net.h"
-#include "nets/sdf_net.h"
+#include "models/pose_net.h"
+#include "models/sdf_net.h"
 #include "recon/camera_refine.h"
 #include "recon/framing.h"
 
@@ -164,7 +164,7 @@ struct ReconResult {
 /// input's camera sees of the object mirrored across x = 0.
 Eigen::VectorXf flip_network_input(const Eigen::VectorXf& input, int size);
 
-/// The non-white pixels (is_ink, nets/dataset.h: any channel off white by more than 0.05) of a network input (3 x 137 x 137).
+/// The non-white pixels (is_ink, train/dataset.h: any channel off white by more than 0.05) of a network input (3 x 137 x 137).
 Image input_foreground(const Eigen::VectorXf& input);
 
 /// Holds the networks; run() is thread-safe (the pose network is serialised by a mutex).

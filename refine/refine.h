@@ -10,7 +10,7 @@
 #include "camera/image.h"
 #include "camera/soft_raster.h"
 #include "core/types.h"
-#include "nets/critic.h"
+#include "models/critic.h"
 
 #include <functional>
 #include <string>
@@ -65,7 +65,7 @@ struct RefineSettings {
   /// fitted), so that the shading cannot be absorbed by per-vertex colours; false: one per vertex.
   bool uniform_albedo = true;
   /// Weight of the adversarial term (0 = no critic): the generator's binary cross-entropy of the critic's verdict
-  /// on the step's renders against "real" (nets/critic.h); the critic is trained on the same steps (Adam, real
+  /// on the step's renders against "real" (models/critic.h); the critic is trained on the same steps (Adam, real
   /// targets against the renders) from a seed derived from `seed`.
   double w_adversarial = 0;
   CriticSettings critic;

@@ -6,8 +6,8 @@
 #include "core/json.h"
 #include "core/mesh_io.h"
 #include "metrics/protocols.h"
-#include "nets/sdf_train.h"
 #include "sdf/orientation.h"
+#include "train/sdf_train.h"
 
 #include <OpenImageIO/imageio.h>
 #include <doctest/doctest.h>

@@ -3,7 +3,7 @@
 #include "camera/camera.h"
 #include "core/error.h"
 #include "core/random.h"
-#include "nets/dataset.h"
+#include "train/dataset.h"
 
 #include <doctest/doctest.h>
 

@@ -4,7 +4,7 @@
 
 #include "core/error.h"
 #include "core/primitives.h"
-#include "nets/dataset.h"
+#include "train/dataset.h"
 
 #include <doctest/doctest.h>
 

@@ -3,7 +3,7 @@
 #include "camera/camera.h"
 #include "core/json.h"
 #include "core/primitives.h"
-#include "nets/dataset.h"
+#include "train/dataset.h"
 
 #include <doctest/doctest.h>
 

@@ -4,7 +4,7 @@
 #include "cli_run.h"
 #include "core/error.h"
 #include "core/random.h"
-#include "nets/seg_net.h"
+#include "models/seg_net.h"
 #include "scratch.h"
 
 #include <doctest/doctest.h>

@@ -5,7 +5,7 @@ _sdfkit_supp=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 # slower (a tiny training run: 174 s against 13 s; a photo reconstruction: 319 s against 195 s). Stacks then end at
 # the first frame without a frame pointer (libstdc++, third-party libraries), which names sdfkit's own leaks but may
 # hide the library of a third-party one: the MPI training tests, whose Open MPI leaks are suppressed by library name,
-# ask for the slow unwinder themselves (tests/nets/mpi_train_test.cpp).
+# ask for the slow unwinder themselves (tests/train/mpi_train_test.cpp).
 export ASAN_OPTIONS=detect_leaks=1:fast_unwind_on_malloc=1:strict_string_checks=1:detect_stack_use_after_return=0
 export LSAN_OPTIONS=suppressions=$_sdfkit_supp/lsan.supp:print_suppressions=0
 # UBSan's checks stay recoverable (so that suppressions apply) and halt at run time.
