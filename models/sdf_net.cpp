@@ -542,43 +542,6 @@ void SdfNetT<T>::local_features(const ShapeCode& code, const PointsF& points, Te
   features.reshape({n, features.dim(-1)});
 }
 
-namespace {
-
-template <typename T>
-using RowMat = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-
-/// out = in W^T (+ b): one Linear layer on the rows of a block.
-template <typename T>
-void linear_rows(const Linear<T>& layer, const RowMat<T>& in, RowMat<T>& out) {
-  const int64_t I = layer.settings().in_features, O = layer.settings().out_features;
-  ConstMatMapT<T> W(layer.params(), O, I);
-  out.resize(in.rows(), O);
-  out.noalias() = in * W.transpose();
-  if (layer.settings().bias) out.rowwise() += Eigen::Map<const Eigen::Matrix<T, 1, Eigen::Dynamic>>(layer.params() + O * I, O);
-}
-
-/// Runs a chain of Linear and ReLU layers (the only kinds the streams use) on a block; returns the output, which
-/// lives in `a` or `b`.
-template <typename T>
-const RowMat<T>& run_rows(const Sequential<T>& chain, const RowMat<T>& x, RowMat<T>& a, RowMat<T>& b) {
-  const RowMat<T>* in = &x;
-  for (size_t i = 0; i < chain.size(); ++i) {
-    const Layer<T>* layer = &chain[i];
-    if (const auto* lin = dynamic_cast<const Linear<T>*>(layer)) {
-      RowMat<T>& out = in == &a ? b : a;
-      linear_rows(*lin, *in, out);
-      in = &out;
-    } else {
-      require(layer->type() == "relu" && in != &x, "SDF network: unexpected layer in a point stream");
-      RowMat<T>& io = in == &a ? a : b;
-      io = io.cwiseMax(T(0));
-    }
-  }
-  return *in;
-}
-
-}  // namespace
-
 template <typename T>
 void SdfNetT<T>::predict(const ShapeCode& code, const PointsF& points, Eigen::Matrix<T, Eigen::Dynamic, 1>& pred,
                          int chunk) const {
@@ -595,12 +558,14 @@ void SdfNetT<T>::predict(const ShapeCode& code, const PointsF& points, Eigen::Ma
   const int64_t blocks = (total + block - 1) / block;
   tbb::parallel_for(tbb::blocked_range<int64_t>(0, blocks), [&](const tbb::blocked_range<int64_t>& range) {
     flush_denormals_on_this_thread();
-    RowMat<T> x, a, b, z, c, d;
+    // The chains run as every chain does (Sequential::run), on this task's buffers.
+    TensorT<T> x, pf, z, out, a, b;
     std::vector<T> pos, pos_mirror;
     for (int64_t bi = range.begin(); bi < range.end(); ++bi) {
       const int64_t c0 = bi * block, n = std::min(block, total - c0);
       PointsF p = points.middleRows(c0, n);
-      x = p.template cast<T>();
+      x.resize({n, 3});
+      x.mat(n, 3) = p.template cast<T>();
       if (m.max_local_maps > 0) {
         pos.resize(static_cast<size_t>(2 * n));
         project_for_sampling<T>(code.camera, p, S, pos.data());
@@ -612,22 +577,23 @@ void SdfNetT<T>::predict(const ShapeCode& code, const PointsF& points, Eigen::Ma
       }
       for (size_t si = 0; si < m.streams.size(); ++si) {
         const auto& s = m.streams[si];
-        const RowMat<T>& pf = run_rows(s.point_mlp, x, a, b);
-        linear_rows(*s.first_p, pf, z);
-        const int64_t H = z.cols();
-        if (s.uses_global) z.rowwise() += Eigen::Map<const Eigen::Matrix<T, 1, Eigen::Dynamic>>(code.bias[si].ptr(), H);
+        s.point_mlp.run(x, pf, a, b);
+        s.first_p->forward(pf, z);
+        const int64_t H = z.dim(-1);
+        MatMapT<T> zm = z.mat(n, H);
+        if (s.uses_global) zm.rowwise() += Eigen::Map<const Eigen::Matrix<T, 1, Eigen::Dynamic>>(code.bias[si].ptr(), H);
         // z += the projected maps' values at each point's position (its own, then its mirror image's).
         auto gather = [&](const std::vector<TensorT<T>>& maps, const std::vector<T>& positions) {
           for (const TensorT<T>& map : maps)
             for (int64_t i = 0; i < n; ++i)
               bilinear_accumulate_hwc(map.ptr(), map.dim(0), map.dim(1), H, positions[2 * i], positions[2 * i + 1],
-                                      bs, z.data() + i * H);
+                                      bs, z.ptr() + i * H);
         };
         gather(code.proj[si], pos);
         gather(code.proj_mirror[si], pos_mirror);
-        z = z.cwiseMax(T(0));
-        const RowMat<T>& out = run_rows(s.rest, z, c, d);
-        pred.segment(c0, n) += out.col(0);
+        zm = zm.cwiseMax(T(0));
+        s.rest.run(z, out, a, b);
+        pred.segment(c0, n) += Eigen::Map<const Eigen::Matrix<T, Eigen::Dynamic, 1>>(out.ptr(), n);
       }
     }
   });

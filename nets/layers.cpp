@@ -759,6 +759,11 @@ void Sequential<T>::backward_from(const TensorT<T>& x, const std::vector<TensorT
 template <typename T>
 void Sequential<T>::run(const TensorT<T>& x, TensorT<T>& y) const {
   TensorT<T> a, b;
+  run(x, y, a, b);
+}
+
+template <typename T>
+void Sequential<T>::run(const TensorT<T>& x, TensorT<T>& y, TensorT<T>& a, TensorT<T>& b) const {
   const TensorT<T>* in = &x;
   for (size_t i = 0; i < layers_.size(); ++i) {
     TensorT<T>& out = (i + 1 == layers_.size()) ? y : (i % 2 == 0 ? a : b);

@@ -218,6 +218,9 @@ class Sequential : public Layer<T> {
                      TensorT<T>* dx) const;
   /// Inference with local buffers: only the output is kept.
   void run(const TensorT<T>& x, TensorT<T>& y) const;
+  /// The same with the caller's buffers for the inner activations (a caller that runs the chain on many blocks,
+  /// e.g. the SDF network's point streams, allocates them once).
+  void run(const TensorT<T>& x, TensorT<T>& y, TensorT<T>& a, TensorT<T>& b) const;
   /// Forward FLOPs on an input of shape `in`; the first layer's share in *first and the output shape in *out when
   /// not null.
   double flops(Shape in, double* first = nullptr, Shape* out = nullptr) const;
