@@ -17,7 +17,7 @@
 
 namespace sdfkit::app {
 
-/// Exit codes of the CLI contract (docs/CLI in DESIGN.md).
+/// Exit codes of the CLI contract (docs/DESIGN.md, "Errors and exit codes").
 enum ExitCode : int { kOk = 0, kUserError = 1, kPartialFailure = 2 };
 
 struct Command {

@@ -2,7 +2,7 @@
 // 6D (b1, b2) -> R by Gram-Schmidt, R -> 6D, and the analytic backward pass dL/db from dL/dR.
 // Header-only templates on the scalar type: the networks use float, tests use double.
 //
-// Forward (DESIGN.md):  r1 = N(b1),  r3 = N(r1 x b2),  r2 = r3 x r1,  R = [r1 r2 r3] (columns).
+// Forward (docs/DESIGN.md):  r1 = N(b1),  r3 = N(r1 x b2),  r2 = r3 x r1,  R = [r1 r2 r3] (columns).
 // R is orthonormal with det +1 by construction. b1 = (b[0], b[1], b[2]), b2 = (b[3], b[4], b[5]).
 //
 // Numerical safety (never NaN, never Inf, for any finite or non-finite input):

@@ -1,4 +1,4 @@
-// The three scoring protocols of sdfkit (DESIGN.md "Metric protocols"; every convention in docs/eval.md):
+// The three scoring protocols of sdfkit (every convention in docs/eval.md):
 //  disn : 2048 points drawn with replacement from each mesh's VERTICES; CD = (mean pred->gt squared NN distance
 //         + mean gt->pred) x 1000; EMD = sum of matched Euclidean distances x 0.01 (exact by default, Fan et al.'s
 //         approximate matcher with EmdMethod::kApprox); F-score, precision and recall (in %) at thresholds

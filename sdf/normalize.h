@@ -1,4 +1,4 @@
-// The unit-sphere object frame of DESIGN.md: centre = area-weighted surface centroid, scale = 1 / (largest
+// The unit-sphere object frame of docs/DESIGN.md: centre = area-weighted surface centroid, scale = 1 / (largest
 // distance of a vertex from it). Every prepared shape stores norm = [cx, cy, cz, r].
 #pragma once
 
