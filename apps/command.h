@@ -115,7 +115,8 @@ class ProgressBar;
 
 /// The output files of a batch: `out` itself for one image (many = false), else out/<input's stem><suffix>. Fixed
 /// before any work: two inputs with one stem (a.png and a.jpg in a folder, or one name in two listed folders) would
-/// write the same file, so the later one gets a clash message ("...; not <verb>") and fails as an item.
+/// write the same file, so the later one gets a clash message ("...; not <verb>") and fails as an item. The folder
+/// the outputs go to is created first; IoError (with the system's reason) when it cannot be, or cannot be written.
 struct BatchOutputs {
   std::vector<std::string> paths, clash;  ///< per input; clash empty when the path is its own
 };

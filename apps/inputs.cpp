@@ -4,10 +4,14 @@
 #include "core/files.h"
 #include "models/seg_net.h"
 
+#include <unistd.h>
+
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -155,6 +159,16 @@ void configure_segmenter(const CLI::App& app, FramingSettings& framing, const st
 
 BatchOutputs batch_outputs(const std::vector<std::string>& inputs, bool many, const std::string& out,
                            const std::string& suffix, const std::string& verb) {
+  // The folder the outputs go to must exist and take files before any item runs: otherwise every item would do its
+  // work and then fail to write it.
+  const fs::path folder = many ? fs::path(out) : fs::path(out).parent_path();
+  if (!folder.empty()) {
+    std::error_code ec;
+    fs::create_directories(folder, ec);
+    if (ec) throw IoError("-o " + out + ": cannot create the folder " + folder.string() + " (" + ec.message() + ")");
+    if (::access(folder.c_str(), W_OK) != 0)
+      throw IoError("-o " + out + ": cannot write in the folder " + folder.string() + " (" + std::strerror(errno) + ")");
+  }
   BatchOutputs b;
   b.paths.resize(inputs.size());
   b.clash.resize(inputs.size());

@@ -24,11 +24,19 @@ namespace sdfkit {
 void write_file_atomic(const std::string& path, const std::function<void(std::ostream&)>& write) {
   const fs::path target(path);
   std::error_code ec;
-  if (target.has_parent_path()) fs::create_directories(target.parent_path(), ec);
+  if (target.has_parent_path()) {
+    fs::create_directories(target.parent_path(), ec);
+    if (ec)
+      throw IoError(path + ": cannot create its folder " + target.parent_path().string() + " (" + ec.message() + ")");
+  }
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
   {
+    errno = 0;
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw IoError(path + ": cannot open for writing");
+    if (!out) {
+      const std::string why = errno != 0 ? std::string(" (") + std::strerror(errno) + ")" : std::string();
+      throw IoError(path + ": cannot open for writing" + why);
+    }
     try {
       write(out);
     } catch (...) {

@@ -490,6 +490,37 @@ TEST_CASE("recon outputs: the format follows -o, a folder only for a folder inpu
   CHECK(fs::is_regular_file(dir / "outdir" / "a.stl"));
 }
 
+// Issue 79: an output folder that cannot be made used to cost a whole batch of reconstructions, then one "cannot
+// open for writing" per image and exit 2, without the reason. A folder under a regular file cannot be created
+// even by root (the tests may run as root, which permissions would not stop).
+TEST_CASE("recon into an output folder that cannot be created fails at once with the reason, exit 1") {
+  REQUIRE(have_models());
+  const fs::path dir = test::scratch_dir("recon_cli") / "unwritable";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "in");
+  const std::string img = kSource + "/data/examples/chair_0004.png";
+  fs::copy_file(img, dir / "in" / "a.png");
+  fs::copy_file(img, dir / "in" / "b.png");
+  write_text_atomic((dir / "notes.txt").string(), "a file, not a folder\n");
+  const std::string batch = (dir / "notes.txt" / "batch").string();
+  const std::string cam = " --cam " + kSource + "/data/examples/chair_0004.json --res 33 --no-preview";
+  Run r = run("recon " + (dir / "in").string() + " -o " + batch + cam);
+  CHECK(r.code == 1);
+  CHECK(r.err.find(batch) != std::string::npos);
+  CHECK(r.err.find("Not a directory") != std::string::npos);
+  CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);  // one line, not one per image
+  CHECK(r.out.find("a.png") == std::string::npos);          // nothing was reconstructed
+  // One image into a mesh path whose folder cannot be made: the same, before the reconstruction.
+  const std::string mesh = (dir / "notes.txt" / "sub" / "a.obj").string();
+  r = run("recon " + img + " -o " + mesh + cam);
+  CHECK(r.code == 1);
+  CHECK(r.err.find("Not a directory") != std::string::npos);
+  // A folder that does not exist yet is made.
+  r = run("recon " + (dir / "in").string() + " -o " + (dir / "new" / "batch").string() + cam);
+  REQUIRE_MESSAGE(r.code == 0, r.err);
+  CHECK(fs::is_regular_file(dir / "new" / "batch" / "a.obj"));
+}
+
 // Issue 19 (real inputs): phones and the web give HEIC and WebP. A single input file is one image whatever its
 // extension (OpenImageIO decides); a folder contributes the image formats this OpenImageIO reads.
 TEST_CASE("recon inputs: WebP and HEIC files, in a folder or alone, and a single file of any extension") {
