@@ -135,7 +135,10 @@ Mesh read_mesh(const std::string& path, MeshReport* report, const TextureSampler
   const std::string ext = extension_of(path);
   if (!has_mesh_extension(path))
     throw IoError(path + ": unknown mesh extension '." + ext + "' (expected .obj, .ply, .off, .stl, .gltf or .glb)");
-  if (!std::filesystem::is_regular_file(path)) throw IoError(path + ": no such file");
+  if (!std::filesystem::is_regular_file(path)) {
+    if (std::filesystem::is_directory(path)) throw IoError(path + ": is a folder, not a mesh file");
+    throw IoError(path + (std::filesystem::exists(path) ? ": not a regular file" : ": no such file"));
+  }
   io::RawMesh raw;
   MeshReport texture_report;
   if (ext == "ply")

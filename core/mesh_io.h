@@ -32,7 +32,8 @@ using TextureSampler =
 /// (Kd) and glTF base colours become vertex colours when the file has none; .ply goes through read_ply of
 /// core/io/ply.h, .off through sdfkit's OFF reader: messages give the line, counted from 1). Polygons are triangulated,
 /// identical vertices are merged, all parts are merged into one mesh in the file's global frame. Throws IoError naming
-/// the file when it cannot be parsed (unknown extension, truncated, malformed) and InvalidInput when it is
+/// the file when it cannot be read (missing, a folder) or parsed (unknown extension, truncated, malformed; assimp's
+/// reasons as "<file>: cannot read mesh: <reason>") and InvalidInput when it is
 /// unusable (empty, non-finite coordinates, out-of-range indices).
 /// With `textures`, parts whose material has a diffuse (glTF: base colour) texture file and UVs are coloured by
 /// sampling it at the vertices (a per-vertex colour: detail finer than the mesh's edges is lost).

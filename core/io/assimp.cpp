@@ -154,10 +154,14 @@ RawMesh read_with_assimp(const std::string& path, const std::string& ext, const 
   // points and lines; read_mesh welds identical vertices.
   const aiScene* scene = importer.ReadFile(path, 0);
   if (scene == nullptr || scene->mRootNode == nullptr) {
+    // assimp's reason in sdfkit's words, on one line: "<file>: cannot read mesh: <reason>".
     std::string why = importer.GetErrorString();
-    if (why.empty()) why = "cannot parse";
-    if (why.rfind(path, 0) == 0) throw IoError(why);  // assimp already named the file
-    throw IoError(path + ": " + why);
+    if (why.rfind(path, 0) == 0) why.erase(0, path.size());  // assimp sometimes names the file itself
+    std::replace_if(why.begin(), why.end(), [](char c) { return c == '\n' || c == '\r'; }, ' ');
+    const size_t start = why.find_first_not_of(" :\t");
+    why = start == std::string::npos ? std::string() : why.substr(start);
+    while (!why.empty() && why.back() == ' ') why.pop_back();
+    throw IoError(path + ": cannot read mesh: " + (why.empty() ? std::string("assimp gives no reason") : why));
   }
   AssimpInput in;
   in.scene = scene;

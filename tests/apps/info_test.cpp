@@ -60,3 +60,27 @@ TEST_CASE("sdfkit info: closed, open and mis-oriented meshes, components, in tex
   const test::CliRun bad = test::run_sdfkit("info " + closed + " --up w");
   CHECK(bad.code == 1);
 }
+
+// Issue 79: a folder named like a mesh was "no such file", and assimp's own words reached the user bare.
+TEST_CASE("sdfkit info and render: a folder named like a mesh is called a folder, assimp's reasons name the file") {
+  const fs::path dir = test::scratch_dir("info_cli") / "folder_named_obj";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "shape.obj");
+  for (const std::string& cmd : {"info " + (dir / "shape.obj").string(),
+                                 "render " + (dir / "shape.obj").string() + " -o " + (dir / "views").string()}) {
+    CAPTURE(cmd);
+    const test::CliRun r = test::run_sdfkit(cmd);
+    CHECK(r.code == 1);
+    CHECK(r.err == "sdfkit: error: " + (dir / "shape.obj").string() + ": is a folder, not a mesh file\n");
+  }
+  CHECK(!fs::exists(dir / "views"));
+  test::CliRun r = test::run_sdfkit("info " + (dir / "absent.obj").string());
+  CHECK(r.code == 1);
+  CHECK(r.err.find("absent.obj: no such file") != std::string::npos);
+  // An OBJ too short for assimp (one vertex line passes sdfkit's checks): sdfkit's words, the file, assimp's reason.
+  const std::string small = (dir / "small.obj").string();
+  write_text_atomic(small, "v 0 0 0\n");
+  r = test::run_sdfkit("info " + small);
+  CHECK(r.code == 1);
+  CHECK(r.err == "sdfkit: error: " + small + ": cannot read mesh: OBJ-file is too small.\n");
+}
