@@ -7,6 +7,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <unordered_map>
 
@@ -111,6 +112,8 @@ Mesh thicken_open_sheets(const Mesh& mesh, double half_thickness, double probe, 
       for (int k = 0; k < 3; ++k) top_of[static_cast<size_t>(mesh.F(f, k))] = 0;
   for (Eigen::Index v = 0; v < nv0; ++v)
     if (top_of[static_cast<size_t>(v)] == 0) top_of[static_cast<size_t>(v)] = static_cast<int32_t>(nv), nv += 2;
+  // Per shared face and edge: a wall unless the edge is shared with one other such face in the opposite direction.
+  std::vector<std::array<bool, 3>> wall(static_cast<size_t>(nf0), {true, true, true});
   long prisms = 0, walls = 0;
   for (Eigen::Index f = 0; f < nf0; ++f) {
     const auto fi = static_cast<size_t>(f);
@@ -119,7 +122,8 @@ Mesh thicken_open_sheets(const Mesh& mesh, double half_thickness, double probe, 
     for (int k = 0; k < 3; ++k) {
       const auto a = static_cast<uint64_t>(mesh.F(f, k)), b = static_cast<uint64_t>(mesh.F(f, (k + 1) % 3));
       const auto fwd = directed.find((a << 32) | b), back = directed.find((b << 32) | a);
-      walls += !(fwd->second == 1 && back != directed.end() && back->second == 1);
+      wall[fi][static_cast<size_t>(k)] = !(fwd->second == 1 && back != directed.end() && back->second == 1);
+      walls += wall[fi][static_cast<size_t>(k)];
     }
   }
   const Eigen::Index slab_faces = 2 * (rep.sheet_faces - prisms) + 2 * walls + 8 * prisms;
@@ -145,11 +149,11 @@ Mesh thicken_open_sheets(const Mesh& mesh, double half_thickness, double probe, 
   Eigen::Index nf = nf0;
   // Top (+n) and bottom (-n) of a face with corner offset vertices top(k)/bot(k); the side wall of its directed
   // edge k -> k+1, (a-, b-, b+), (a-, b+, a+), faces away from the face's interior.
-  const auto emit = [&](const auto& top, const auto& bot, const bool wall[3]) {
+  const auto emit = [&](const auto& top, const auto& bot, const std::array<bool, 3>& walls_of) {
     out.F.row(nf++) << top(0), top(1), top(2);
     out.F.row(nf++) << bot(0), bot(2), bot(1);
     for (int k = 0; k < 3; ++k) {
-      if (!wall[k]) continue;
+      if (!walls_of[static_cast<size_t>(k)]) continue;
       const int j = (k + 1) % 3;
       out.F.row(nf++) << bot(k), bot(j), top(j);
       out.F.row(nf++) << bot(k), top(j), top(k);
@@ -161,14 +165,8 @@ Mesh thicken_open_sheets(const Mesh& mesh, double half_thickness, double probe, 
       const auto fi = static_cast<size_t>(f);
       if (!sheet[fi]) continue;
       if (shared[fi]) {
-        bool wall[3];
-        for (int k = 0; k < 3; ++k) {
-          const auto a = static_cast<uint64_t>(mesh.F(f, k)), b = static_cast<uint64_t>(mesh.F(f, (k + 1) % 3));
-          const auto fwd = directed.find((a << 32) | b), back = directed.find((b << 32) | a);
-          wall[k] = !(fwd->second == 1 && back != directed.end() && back->second == 1);
-        }
         emit([&](int k) { return top_of[static_cast<size_t>(mesh.F(f, k))]; },
-             [&](int k) { return top_of[static_cast<size_t>(mesh.F(f, k))] + 1; }, wall);
+             [&](int k) { return top_of[static_cast<size_t>(mesh.F(f, k))] + 1; }, wall[fi]);
       } else {
         if (twice == 0) {
           const Vec3 offset = half_thickness * unit[fi];
@@ -178,9 +176,8 @@ Mesh thicken_open_sheets(const Mesh& mesh, double half_thickness, double probe, 
             if (colored) out.colors.row(pv + k) = out.colors.row(pv + 3 + k) = mesh.colors.row(mesh.F(f, k));
           }
         }
-        const bool all[3] = {true, true, true};
         emit([&](int k) { return static_cast<int32_t>(pv + k); }, [&](int k) { return static_cast<int32_t>(pv + 3 + k); },
-             all);
+             wall[fi]);  // a prism: every edge a wall
         pv += 6;
       }
     }
