@@ -345,9 +345,11 @@ def _write_atomic(path: Path, data: bytes) -> None:
 
 
 def convert(catalogues: Sequence[Tuple[Path, Optional[str]]], out: Path, seed: int, val_share: float,
-            test_share: float, only: Iterable[str] = (), log=print) -> Dict[str, object]:
-    """Writes the converted meshes, credits, categories and split lists into `out`; returns a summary. An entry that
-    fails is reported and skipped; the summary lists the failures."""
+            test_share: float, only: Iterable[str] = (), log=print,
+            packages: Optional[Dict[str, str]] = None) -> Dict[str, object]:
+    """Writes the converted meshes, credits, categories and split lists into `out`; returns a summary (also written as
+    categories.json, with the source `packages` it was read from). An entry that fails is reported and skipped; the
+    summary lists the failures."""
     only = set(only)
     rows = []
     failures = []
@@ -392,7 +394,7 @@ def convert(catalogues: Sequence[Tuple[Path, Optional[str]]], out: Path, seed: i
              "val": sum(1 for s in splits["val"] if s.startswith(c + "/")),
              "test": sum(1 for s in splits["test"] if s.startswith(c + "/"))} for c in sorted(by_category)]
     summary = {"generator": "scripts/real_meshes", "seed": seed, "shapes": len(rows), "categories": cats,
-               "failures": failures}
+               "failures": failures, "packages": packages or {}}
     _write_atomic(out / "categories.json", (json.dumps(summary, indent=2) + "\n").encode())
     return summary
 
@@ -540,9 +542,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             sources = {p: d.name for p, d in debs.items()}
         meshes = out / "meshes"
         summary = convert(catalogues, meshes, a.seed, a.val_share, a.test_share,
-                          [c for c in a.categories.split(",") if c], log)
-        summary["packages"] = sources
-        _write_atomic(meshes / "categories.json", (json.dumps(summary, indent=2) + "\n").encode())
+                          [c for c in a.categories.split(",") if c], log, sources)
         if a.icons:
             icon_sheets(catalogues, out, log)
     except RealMeshError as e:
